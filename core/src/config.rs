@@ -1,0 +1,311 @@
+//! Controller configuration: every runtime parameter, its default and its validation.
+//!
+//! The defaults are the paper's where it gives a number (Table 1 outer gains, in normalised
+//! image units), the F-16's airframe facts where they apply, and our stated judgement
+//! elsewhere (each documented on its field and in `docs/conventions.md`).
+//!
+//! Invariant: a [`crate::Controller`] is only built from a configuration that passed
+//! [`ControllerConfig::validate`]; the step relies on it (positive gains and limits,
+//! `min_closing <= max_closing`, trim inside the actuator limits).
+
+use serde::{Deserialize, Serialize};
+
+use crate::actuator::ActuatorLimits;
+use crate::gains;
+use crate::kinematics::CameraMount;
+use crate::measurement::MeasurementLimits;
+use crate::mode::ModeConfig;
+use crate::nav::NavEnvelope;
+use crate::outer::{IbvsGains, PbvsGains, PbvsGeometry, VelocityLimits};
+
+/// Which outer loop flies the approach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OuterLaw {
+    /// Image-based visual servo (the paper's method).
+    #[default]
+    Ibvs,
+    /// Position-based baseline.
+    Pbvs,
+}
+
+/// Every runtime parameter of the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ControllerConfig {
+    /// Outer loop in use.
+    pub law: OuterLaw,
+    /// IBVS gains.
+    pub ibvs: IbvsGains,
+    /// PBVS gains.
+    pub pbvs: PbvsGains,
+    /// Limits on the desired velocity, both laws.
+    pub velocity_limits: VelocityLimits,
+    /// Where the controller believes the camera is (may differ from the truth: paper Sec. IV).
+    pub camera: CameraMount,
+    /// Probe tip relative to the CG, body axes, m.
+    pub probe_tip_body_m: [f32; 3],
+    /// Measurement plausibility limits.
+    pub measurement: MeasurementLimits,
+    /// Navigation envelope.
+    pub nav_envelope: NavEnvelope,
+    /// Mode logic.
+    pub modes: ModeConfig,
+    /// Actuator position limits.
+    pub actuators: ActuatorLimits,
+    /// Bound on each inner-loop integrator (a position error), m.
+    pub integrator_limit_m: f32,
+}
+
+/// What is wrong with a configuration value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigProblem {
+    /// NaN or infinite.
+    NotFinite,
+    /// Must be strictly positive.
+    NotPositive,
+    /// Must not be negative.
+    Negative,
+    /// Inconsistent with another value (named in the field).
+    Inconsistent,
+}
+
+/// A rejected configuration: the field and what is wrong with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigError {
+    /// Dotted path of the offending field.
+    pub field: &'static str,
+    /// The problem.
+    pub problem: ConfigProblem,
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "invalid controller configuration: {} is {:?}",
+            self.field, self.problem
+        )
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        Self {
+            law: OuterLaw::Ibvs,
+            ibvs: IbvsGains {
+                k1_mps: 1.0,
+                k2_mps: 2.0,
+                k3_per_s: 0.3,
+                k4_mps: 3.0,
+                k5_mps: 1.0,
+                convergence_point: [0.0, 0.0],
+            },
+            pbvs: PbvsGains {
+                k_lat_per_s: 0.4,
+                k_vert_per_s: 0.4,
+                k_close_per_s: 0.3,
+                k_slow_lat_per_s: 0.5,
+                k_slow_vert_per_s: 0.5,
+            },
+            velocity_limits: VelocityLimits {
+                min_closing_mps: 0.8,
+                max_closing_mps: 2.0,
+                max_lateral_mps: 2.0,
+                max_vertical_mps: 2.0,
+                max_accel_mps2: 0.5,
+            },
+            camera: CameraMount {
+                position_body_m: gains::DESIGN_CAMERA_BODY_M,
+                pitch_down_rad: gains::TRIM.theta_rad,
+            },
+            probe_tip_body_m: gains::DESIGN_CAMERA_BODY_M,
+            measurement: MeasurementLimits::default(),
+            nav_envelope: NavEnvelope::default(),
+            modes: ModeConfig::default(),
+            actuators: ActuatorLimits::default(),
+            integrator_limit_m: 20.0,
+        }
+    }
+}
+
+fn check(field: &'static str, v: f32, positive: bool) -> Result<(), ConfigError> {
+    let problem = if !v.is_finite() {
+        ConfigProblem::NotFinite
+    } else if positive && v <= 0.0 {
+        ConfigProblem::NotPositive
+    } else if v < 0.0 {
+        ConfigProblem::Negative
+    } else {
+        return Ok(());
+    };
+    Err(ConfigError { field, problem })
+}
+
+fn require(field: &'static str, ok: bool) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError {
+            field,
+            problem: ConfigProblem::Inconsistent,
+        })
+    }
+}
+
+impl ControllerConfig {
+    /// What PBVS believes about the geometry.
+    pub fn pbvs_geometry(&self) -> PbvsGeometry {
+        PbvsGeometry {
+            camera: self.camera,
+            probe_tip_body_m: self.probe_tip_body_m,
+            trim_pitch_rad: gains::TRIM.theta_rad,
+        }
+    }
+
+    /// Checks every value; the first problem found is returned.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let g = &self.ibvs;
+        check("ibvs.k1_mps", g.k1_mps, true)?;
+        check("ibvs.k2_mps", g.k2_mps, true)?;
+        check("ibvs.k3_per_s", g.k3_per_s, true)?;
+        check("ibvs.k4_mps", g.k4_mps, false)?;
+        check("ibvs.k5_mps", g.k5_mps, false)?;
+        for v in g.convergence_point {
+            require(
+                "ibvs.convergence_point (finite, inside the field of view)",
+                v.is_finite(),
+            )?;
+        }
+        require(
+            "ibvs.convergence_point (finite, inside the field of view)",
+            libm::fabsf(g.convergence_point[0]) < self.measurement.half_fov_x
+                && libm::fabsf(g.convergence_point[1]) < self.measurement.half_fov_y,
+        )?;
+        let p = &self.pbvs;
+        check("pbvs.k_lat_per_s", p.k_lat_per_s, true)?;
+        check("pbvs.k_vert_per_s", p.k_vert_per_s, true)?;
+        check("pbvs.k_close_per_s", p.k_close_per_s, true)?;
+        check("pbvs.k_slow_lat_per_s", p.k_slow_lat_per_s, false)?;
+        check("pbvs.k_slow_vert_per_s", p.k_slow_vert_per_s, false)?;
+        let l = &self.velocity_limits;
+        check("velocity_limits.min_closing_mps", l.min_closing_mps, true)?;
+        check("velocity_limits.max_closing_mps", l.max_closing_mps, true)?;
+        check("velocity_limits.max_lateral_mps", l.max_lateral_mps, true)?;
+        check("velocity_limits.max_vertical_mps", l.max_vertical_mps, true)?;
+        check("velocity_limits.max_accel_mps2", l.max_accel_mps2, true)?;
+        require(
+            "velocity_limits.min_closing_mps (<= max_closing_mps)",
+            l.min_closing_mps <= l.max_closing_mps,
+        )?;
+        for v in self
+            .camera
+            .position_body_m
+            .into_iter()
+            .chain(self.probe_tip_body_m)
+        {
+            require(
+                "camera.position_body_m / probe_tip_body_m (finite)",
+                v.is_finite(),
+            )?;
+        }
+        require(
+            "camera.pitch_down_rad (finite)",
+            self.camera.pitch_down_rad.is_finite(),
+        )?;
+        let m = &self.measurement;
+        check("measurement.max_depth_m", m.max_depth_m, true)?;
+        check("measurement.half_fov_x", m.half_fov_x, true)?;
+        check("measurement.half_fov_y", m.half_fov_y, true)?;
+        let n = &self.nav_envelope;
+        check("nav_envelope.max_angle_rad", n.max_angle_rad, true)?;
+        check("nav_envelope.max_bank_rad", n.max_bank_rad, true)?;
+        check("nav_envelope.max_sideslip_rad", n.max_sideslip_rad, true)?;
+        check("nav_envelope.max_speed_mps", n.max_speed_mps, true)?;
+        check("nav_envelope.max_rate_radps", n.max_rate_radps, true)?;
+        let md = &self.modes;
+        check("modes.terminal_depth_m", md.terminal_depth_m, true)?;
+        check(
+            "modes.terminal_max_offset_m",
+            md.terminal_max_offset_m,
+            true,
+        )?;
+        check("modes.terminal_overshoot_m", md.terminal_overshoot_m, true)?;
+        check("modes.terminal_timeout_s", md.terminal_timeout_s, true)?;
+        require(
+            "modes.terminal_timeout_s (< 1 hour)",
+            md.terminal_timeout_s < 3600.0,
+        )?;
+        check("modes.breakaway_aft_mps", md.breakaway_aft_mps, false)?;
+        check("modes.breakaway_down_mps", md.breakaway_down_mps, false)?;
+        check(
+            "modes.breakaway_throttle_cut",
+            md.breakaway_throttle_cut,
+            false,
+        )?;
+        let a = &self.actuators;
+        let trim = trim_command();
+        for ((lo, hi), t) in a.min.iter().zip(a.max).zip(trim) {
+            require("actuators (finite, min < max)", lo.is_finite() && hi.is_finite() && *lo < hi)?;
+            require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
+        }
+        check("integrator_limit_m", self.integrator_limit_m, true)
+    }
+}
+
+/// The trim command `[elevator, throttle, aileron, rudder]` from the generated design.
+pub fn trim_command() -> [f32; 4] {
+    let t = &gains::TRIM;
+    [t.elevator_rad, t.throttle, t.aileron_rad, t.rudder_rad]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid() {
+        assert_eq!(ControllerConfig::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn names_the_bad_field() {
+        let mut c = ControllerConfig::default();
+        c.ibvs.k3_per_s = 0.0;
+        assert_eq!(
+            c.validate(),
+            Err(ConfigError {
+                field: "ibvs.k3_per_s",
+                problem: ConfigProblem::NotPositive
+            })
+        );
+        let mut c = ControllerConfig::default();
+        c.pbvs.k_slow_lat_per_s = f32::NAN;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::NotFinite)
+        );
+        let mut c = ControllerConfig::default();
+        c.velocity_limits.min_closing_mps = 5.0;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::Inconsistent)
+        );
+        let mut c = ControllerConfig::default();
+        c.actuators.max[1] = 0.01;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::Inconsistent)
+        );
+        let mut c = ControllerConfig::default();
+        c.modes.breakaway_down_mps = -1.0;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::Negative)
+        );
+    }
+}

@@ -1,0 +1,431 @@
+//! The controller: one fixed-period step from inputs to saturated actuator commands.
+//!
+//! [`Controller::step`] runs the data flow of the crate docs once. It is called every
+//! [`crate::gains::CONTROL_PERIOD_S`] seconds; the gains are only valid at that period.
+//!
+//! Responses to bad input (specified in `docs/conventions.md`, "Input validation"):
+//! - invalid measurement in approach: the last valid outer-loop command is held, for at most
+//!   `modes.hold_limit_steps` consecutive steps, then breakaway (`MeasurementLost`);
+//! - invalid navigation: the last valid navigation sample is used with the integrators frozen,
+//!   for at most `modes.hold_limit_steps` steps, then breakaway (`NavLost`); a breakaway
+//!   without valid navigation flies open loop: trim surfaces, throttle cut;
+//! - every rejection is counted in [`Counters`] and reported in the step's output.
+//!
+//! Invariants: `step` never panics and returns finite commands inside the actuator limits
+//! for every input (property-tested in `tests/properties.rs`).
+
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+
+use crate::actuator::{ActuatorCommand, Saturation};
+use crate::config::{ConfigError, ControllerConfig, OuterLaw, trim_command};
+use crate::frames::{TargetEstimate, VelocityRe};
+use crate::gains::{self, CONTROL_PERIOD_S};
+use crate::inner::{Channel, EngineEstimate};
+use crate::kinematics::{lever_arm_lat, lever_arm_lon};
+use crate::measurement::{
+    CameraMeasurement, ImageFeature, MeasurementError, SequenceCheck, SequenceTracker,
+};
+use crate::mode::{BreakawayReason, Mode, ModeInputs, ModeMachine, ModeRequest};
+use crate::nav::{NavError, NavSample};
+use crate::outer::{self, OuterOutput};
+
+/// Everything the controller reads in one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ControllerInput {
+    /// Latest frame from the drogue tracker.
+    pub measurement: CameraMeasurement,
+    /// Latest navigation sample (perturbations from trim).
+    pub nav: NavSample,
+    /// Probe contact discrete (coupling latched / fuel pressure).
+    pub probe_contact: bool,
+    /// Operator request.
+    pub request: ModeRequest,
+}
+
+/// Status bits of one step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StatusFlags(pub u16);
+
+impl StatusFlags {
+    /// The outer loop ran on a held command (measurement invalid this step, approach).
+    pub const MEASUREMENT_HELD: u16 = 1 << 0;
+    /// The inner loops ran on the held navigation sample.
+    pub const NAV_HELD: u16 = 1 << 1;
+    /// Elevator, throttle, aileron, rudder saturated (bits 2..5, channel order).
+    pub const SATURATED_ELEVATOR: u16 = 1 << 2;
+    /// Throttle saturated.
+    pub const SATURATED_THROTTLE: u16 = 1 << 3;
+    /// Aileron saturated.
+    pub const SATURATED_AILERON: u16 = 1 << 4;
+    /// Rudder saturated.
+    pub const SATURATED_RUDDER: u16 = 1 << 5;
+    /// A longitudinal integrator was frozen by anti-windup.
+    pub const LON_INTEGRATOR_FROZEN: u16 = 1 << 6;
+    /// The lateral integrator was frozen by anti-windup.
+    pub const LAT_INTEGRATOR_FROZEN: u16 = 1 << 7;
+    /// An engage request was refused (no valid measurement or navigation).
+    pub const ENGAGE_REFUSED: u16 = 1 << 8;
+    /// A computed command was not finite and was replaced by trim (must never happen).
+    pub const NON_FINITE_COMMAND: u16 = 1 << 9;
+    /// Breakaway without navigation: open-loop command.
+    pub const OPEN_LOOP: u16 = 1 << 10;
+
+    /// True when every bit of `mask` is set.
+    pub fn contains(self, mask: u16) -> bool {
+        self.0 & mask == mask
+    }
+}
+
+/// Running counts since construction (saturating). Nothing is rejected without a count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Steps run.
+    pub steps: u32,
+    /// Frames that passed validation.
+    pub frames_valid: u32,
+    /// Frames the camera numbered that never arrived (sequence gaps).
+    pub frames_dropped: u32,
+    /// [`MeasurementError::NotTracked`] frames.
+    pub not_tracked: u32,
+    /// [`MeasurementError::NonFinite`] frames.
+    pub non_finite: u32,
+    /// [`MeasurementError::DepthNotPositive`] frames.
+    pub depth_not_positive: u32,
+    /// [`MeasurementError::DepthTooLarge`] frames.
+    pub depth_too_large: u32,
+    /// [`MeasurementError::OutsideFieldOfView`] frames.
+    pub outside_fov: u32,
+    /// [`MeasurementError::Repeated`] frames.
+    pub repeated: u32,
+    /// [`MeasurementError::OutOfOrder`] frames.
+    pub out_of_order: u32,
+    /// [`NavError::NonFinite`] samples.
+    pub nav_non_finite: u32,
+    /// [`NavError::OutsideEnvelope`] samples.
+    pub nav_outside_envelope: u32,
+    /// Approach steps flown on a held outer-loop command.
+    pub measurement_held_steps: u32,
+    /// Engaged steps flown on a held navigation sample.
+    pub nav_held_steps: u32,
+    /// Engage requests refused.
+    pub engage_refused: u32,
+    /// Steps with at least one actuator saturated.
+    pub saturated_steps: u32,
+    /// Steps with at least one integrator frozen by anti-windup.
+    pub integrator_frozen_steps: u32,
+    /// Steps where a computed command was not finite (replaced by trim).
+    pub non_finite_commands: u32,
+}
+
+impl Counters {
+    fn count_measurement(&mut self, e: MeasurementError) {
+        let c = match e {
+            MeasurementError::NotTracked => &mut self.not_tracked,
+            MeasurementError::NonFinite => &mut self.non_finite,
+            MeasurementError::DepthNotPositive => &mut self.depth_not_positive,
+            MeasurementError::DepthTooLarge => &mut self.depth_too_large,
+            MeasurementError::OutsideFieldOfView => &mut self.outside_fov,
+            MeasurementError::Repeated => &mut self.repeated,
+            MeasurementError::OutOfOrder => &mut self.out_of_order,
+        };
+        *c = c.saturating_add(1);
+    }
+}
+
+fn bump(c: &mut u32, when: bool) {
+    if when {
+        *c = c.saturating_add(1);
+    }
+}
+
+/// Everything the controller produces in one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ControllerOutput {
+    /// Saturated absolute actuator commands.
+    pub command: ActuatorCommand,
+    /// Mode after this step.
+    pub mode: Mode,
+    /// Why, when the mode is breakaway.
+    pub breakaway_reason: Option<BreakawayReason>,
+    /// Status bits.
+    pub status: StatusFlags,
+    /// This step's measurement rejection, if any.
+    pub measurement_error: Option<MeasurementError>,
+    /// This step's navigation rejection, if any.
+    pub nav_error: Option<NavError>,
+    /// Desired camera velocity relative to the drogue that the inner loops tracked, `re` axes.
+    pub v_des: VelocityRe,
+    /// The outer loop's latest target estimate (held while the measurement is invalid).
+    pub target: TargetEstimate,
+    /// Step counter (wraps).
+    pub step: u32,
+}
+
+/// The docking controller.
+#[derive(Debug, Clone)]
+pub struct Controller {
+    cfg: ControllerConfig,
+    lon: Channel<5, 2, 2>,
+    engine: EngineEstimate,
+    lat: Channel<5, 1, 2>,
+    modes: ModeMachine,
+    sequence: SequenceTracker,
+    last_nav: NavSample,
+    last_outer: OuterOutput,
+    v_cmd: VelocityRe,
+    counters: Counters,
+}
+
+impl Controller {
+    /// Control period, s: the one the generated gains were synthesised for.
+    pub const PERIOD_S: f32 = CONTROL_PERIOD_S;
+
+    /// Builds a controller in standby from a validated configuration.
+    pub fn new(cfg: ControllerConfig) -> Result<Self, ConfigError> {
+        cfg.validate()?;
+        let trim = trim_command();
+        let cam = cfg.camera.position_body_m;
+        Ok(Self {
+            lon: Channel::new(
+                &gains::LON,
+                &lever_arm_lon(cam, gains::TRIM.theta_rad),
+                [trim[0], trim[1]],
+            ),
+            lat: Channel::new(&gains::LAT, &lever_arm_lat(cam), [trim[2], trim[3]]),
+            engine: EngineEstimate::new(gains::ENGINE_MODEL),
+            cfg,
+            modes: ModeMachine::default(),
+            sequence: SequenceTracker::default(),
+            last_nav: NavSample::default(),
+            last_outer: OuterOutput::default(),
+            v_cmd: VelocityRe::ZERO,
+            counters: Counters::default(),
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &ControllerConfig {
+        &self.cfg
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.modes.mode()
+    }
+
+    /// Counters since construction.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// Integrator states `[lon down, lon forward, lat right]`, m.
+    pub fn integrators_m(&self) -> [f32; 3] {
+        let (lo, la) = (self.lon.integrators(), self.lat.integrators());
+        [lo[0], lo[1], la[0]]
+    }
+
+    fn observe_measurement(
+        &mut self,
+        m: &CameraMeasurement,
+    ) -> Result<ImageFeature, MeasurementError> {
+        let checked = match self.sequence.observe(m.seq) {
+            SequenceCheck::New { dropped } => {
+                self.counters.frames_dropped = self.counters.frames_dropped.saturating_add(dropped);
+                m.validate(&self.cfg.measurement)
+            }
+            SequenceCheck::Rejected(e) => Err(e),
+        };
+        match checked {
+            Ok(_) => bump(&mut self.counters.frames_valid, true),
+            Err(e) => self.counters.count_measurement(e),
+        }
+        checked
+    }
+
+    fn outer_law(&self, f: &ImageFeature) -> OuterOutput {
+        let c = &self.cfg;
+        match c.law {
+            OuterLaw::Ibvs => outer::ibvs(f, &c.ibvs, &c.velocity_limits),
+            OuterLaw::Pbvs => outer::pbvs(
+                f,
+                &self.last_nav,
+                &c.pbvs_geometry(),
+                &c.pbvs,
+                &c.velocity_limits,
+            ),
+        }
+    }
+
+    /// The desired camera velocity relative to the drogue for the current mode, before
+    /// slewing.
+    fn mode_velocity(&self) -> VelocityRe {
+        let (lim, md) = (&self.cfg.velocity_limits, &self.cfg.modes);
+        match self.modes.mode() {
+            Mode::Standby | Mode::Docked => VelocityRe::ZERO,
+            Mode::Approach => self.last_outer.v_des,
+            Mode::Terminal => {
+                let held = self.modes.terminal().held;
+                VelocityRe {
+                    z_fwd_mps: lim.min_closing_mps,
+                    ..held
+                }
+            }
+            Mode::Breakaway => VelocityRe {
+                x_right_mps: 0.0,
+                y_down_mps: md.breakaway_down_mps,
+                z_fwd_mps: -md.breakaway_aft_mps,
+            },
+        }
+    }
+
+    /// Runs one control step. Never panics; the command is always finite and within limits.
+    pub fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
+        let ts = Self::PERIOD_S;
+        let c = &mut self.counters;
+        c.steps = c.steps.saturating_add(1);
+
+        // 1. Navigation: hold the last valid sample when this one is bad.
+        let nav_error = input.nav.validate(&self.cfg.nav_envelope).err();
+        match nav_error {
+            None => self.last_nav = input.nav,
+            Some(NavError::NonFinite) => bump(&mut c.nav_non_finite, true),
+            Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
+        }
+        let nav_valid = nav_error.is_none();
+        let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
+        let x_lat = self.last_nav.lat_design_state();
+
+        // 2. Measurement, 3. outer loop (its output is kept, i.e. held, until the next valid one).
+        let feature = self.observe_measurement(&input.measurement);
+        let fresh = feature.ok().map(|f| self.outer_law(&f));
+        if let Some(o) = fresh
+            && matches!(self.modes.mode(), Mode::Standby | Mode::Approach)
+        {
+            self.last_outer = o;
+        }
+
+        // 4. Mode logic.
+        let camera_fwd_mps = self.lon.camera_velocity(&x_lon)[1];
+        let refused = self.modes.update(
+            &ModeInputs {
+                request: input.request,
+                target: fresh.map(|o| o.target),
+                nav_valid,
+                probe_contact: input.probe_contact,
+                camera_fwd_mps,
+                v_des: self.v_cmd,
+            },
+            &self.cfg.modes,
+            ts,
+        );
+        let mode = self.modes.mode();
+        self.v_cmd = if mode == Mode::Standby {
+            VelocityRe::ZERO
+        } else {
+            outer::slew(
+                &self.v_cmd,
+                &self.mode_velocity(),
+                self.cfg.velocity_limits.max_accel_mps2 * ts,
+            )
+        };
+        let v_des = self.v_cmd;
+
+        // 5. Inner loops and saturation.
+        let trim = trim_command();
+        let open_loop = mode == Mode::Breakaway && !nav_valid;
+        let requested = if mode == Mode::Standby {
+            self.lon.reset();
+            self.lat.reset();
+            trim
+        } else if open_loop {
+            let mut t = trim;
+            t[1] -= self.cfg.modes.breakaway_throttle_cut;
+            t
+        } else {
+            let [e, th] = self.lon.command(&x_lon);
+            let [a, r] = self.lat.command(&x_lat);
+            [e, th, a, r]
+        };
+        let (command, sat) = self.cfg.actuators.saturate(requested, trim);
+        self.engine.advance(command[1] - trim[1]);
+        let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
+            self.integrate(&x_lon, &x_lat, &v_des, &sat)
+        } else {
+            (false, false)
+        };
+
+        // 6. Status and counters.
+        let held = self.modes.holding_measurement();
+        let nav_held = !nav_valid && mode != Mode::Standby;
+        let saturated = sat.side.iter().any(|&s| s != 0);
+        let mut bits = 0u16;
+        for (i, s) in sat.side.iter().enumerate() {
+            if *s != 0 {
+                bits |= StatusFlags::SATURATED_ELEVATOR << i;
+            }
+        }
+        for (flag, on) in [
+            (StatusFlags::MEASUREMENT_HELD, held),
+            (StatusFlags::NAV_HELD, nav_held),
+            (StatusFlags::LON_INTEGRATOR_FROZEN, lon_frozen),
+            (StatusFlags::LAT_INTEGRATOR_FROZEN, lat_frozen),
+            (StatusFlags::ENGAGE_REFUSED, refused),
+            (StatusFlags::NON_FINITE_COMMAND, sat.non_finite),
+            (StatusFlags::OPEN_LOOP, open_loop),
+        ] {
+            if on {
+                bits |= flag;
+            }
+        }
+        let c = &mut self.counters;
+        bump(&mut c.measurement_held_steps, held);
+        bump(&mut c.nav_held_steps, nav_held);
+        bump(&mut c.engage_refused, refused);
+        bump(&mut c.saturated_steps, saturated);
+        bump(&mut c.integrator_frozen_steps, lon_frozen || lat_frozen);
+        bump(&mut c.non_finite_commands, sat.non_finite);
+
+        ControllerOutput {
+            command: ActuatorCommand::from_array(command),
+            mode,
+            breakaway_reason: self.modes.breakaway_reason(),
+            status: StatusFlags(bits),
+            measurement_error: feature.err(),
+            nav_error,
+            v_des,
+            target: self.last_outer.target,
+            step: c.steps,
+        }
+    }
+
+    fn integrate(
+        &mut self,
+        x_lon: &SVector<f32, 5>,
+        x_lat: &SVector<f32, 5>,
+        v: &VelocityRe,
+        sat: &Saturation,
+    ) -> (bool, bool) {
+        let (ts, lim) = (Self::PERIOD_S, self.cfg.integrator_limit_m);
+        let s = sat.side;
+        let lon = self.lon.integrate(
+            x_lon,
+            &SVector::<f32, 2>::new(v.y_down_mps, v.z_fwd_mps),
+            &[s[0], s[1]],
+            ts,
+            lim,
+        );
+        let lat = self.lat.integrate(
+            x_lat,
+            &SVector::<f32, 1>::new(v.x_right_mps),
+            &[s[2], s[3]],
+            ts,
+            lim,
+        );
+        (lon, lat)
+    }
+}

@@ -1,0 +1,266 @@
+//! Inner loops: camera-velocity tracking by discrete LQR with integral action, per channel.
+//!
+//! Longitudinal: design state `[theta, V, alpha, q, P]`, outputs (camera down, camera forward
+//! velocity), inputs (elevator, throttle). `P`, the engine power perturbation, is not
+//! measured: [`EngineModel`] predicts it from the throttle commands actually sent, with the
+//! same discrete model the design used. Lateral: `[psi, phi, beta, p, r]`, output camera
+//! right velocity, inputs (aileron, rudder). (Paper eq. (25)-(35), with the input labels of
+//! paper-notes item 1 and the one lateral integrator of item 5.)
+//!
+//! Each channel computes, at step k,
+//!
+//! ```text
+//! u[k]   = u_trim - K_x x[k] - K_q q[k]            (then saturated)
+//! q[k+1] = q[k] + Ts (C x[k] - v_des[k])           (unless frozen by anti-windup)
+//! ```
+//!
+//! which is exactly the augmented discrete plant the gains were synthesised for: the plant
+//! discretised by zero-order hold at Ts, the integrator as this forward sum (paper-notes
+//! item 9). `C = C_cg + C_lever(p_cam)`: the CG part is generated, the lever-arm part is
+//! computed from the believed camera position ([`crate::kinematics`]).
+//!
+//! Anti-windup: conditional integration. An integrator is frozen in a step when any actuator
+//! of its channel is saturated and that integrator's update would push the actuator further
+//! into its limit. Integrators are also clamped to `+/- integrator_limit_m`.
+//!
+//! Invariant: for finite `x` and `v_des` the integrators stay finite and bounded.
+
+use nalgebra::{SMatrix, SVector};
+
+/// Names of the longitudinal design states, in order.
+pub const LON_STATES: [&str; 5] = [
+    "theta_rad",
+    "v_mps",
+    "alpha_rad",
+    "q_radps",
+    "engine_power_pct",
+];
+/// Names of the longitudinal tracked outputs (camera velocity, tanker axes), in order.
+pub const LON_OUTPUTS: [&str; 2] = ["cam_down_mps", "cam_fwd_mps"];
+/// Names of the longitudinal inputs, in order.
+pub const LON_INPUTS: [&str; 2] = ["elevator_rad", "throttle"];
+/// Names of the lateral design states, in order.
+pub const LAT_STATES: [&str; 5] = ["psi_rad", "phi_rad", "beta_rad", "p_radps", "r_radps"];
+/// Names of the lateral tracked outputs, in order.
+pub const LAT_OUTPUTS: [&str; 1] = ["cam_right_mps"];
+/// Names of the lateral inputs, in order.
+pub const LAT_INPUTS: [&str; 2] = ["aileron_rad", "rudder_rad"];
+
+/// Generated design data of one channel (see [`crate::gains`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChannelGains<const NX: usize, const NY: usize, const NU: usize> {
+    /// State-feedback gain `K_x`, one row per input.
+    pub k_state: [[f32; NX]; NU],
+    /// Integral gain `K_q`, one row per input.
+    pub k_integral: [[f32; NY]; NU],
+    /// Camera-velocity output matrix from CG motion alone, one row per output.
+    pub c_cg: [[f32; NX]; NY],
+}
+
+/// The trim point the design is linearised about.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrimPoint {
+    /// True airspeed = ground speed = tanker speed, m/s.
+    pub speed_mps: f32,
+    /// Altitude, m.
+    pub altitude_m: f32,
+    /// Angle of attack, rad.
+    pub alpha_rad: f32,
+    /// Pitch angle, rad (equal to alpha in level flight).
+    pub theta_rad: f32,
+    /// Throttle, 0..1.
+    pub throttle: f32,
+    /// Elevator, rad.
+    pub elevator_rad: f32,
+    /// Aileron, rad.
+    pub aileron_rad: f32,
+    /// Rudder, rad.
+    pub rudder_rad: f32,
+}
+
+/// Discrete first-order engine model of the design: `P[k+1] = pole P[k] + gain dthrottle[k]`
+/// with `P` the power perturbation (percent) and `dthrottle` the throttle perturbation from
+/// trim; the engine row of the zero-order-hold discretised design plant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EngineModel {
+    /// Discrete pole, `exp(-Ts / tau)`.
+    pub pole: f32,
+    /// Power per unit throttle over one step, percent.
+    pub gain_pct: f32,
+}
+
+/// The controller's running estimate of the engine power perturbation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EngineEstimate {
+    model: EngineModel,
+    power_pct: f32,
+}
+
+impl EngineEstimate {
+    /// An estimate at trim power.
+    pub fn new(model: EngineModel) -> Self {
+        Self {
+            model,
+            power_pct: 0.0,
+        }
+    }
+
+    /// Power perturbation, percent.
+    pub fn power_pct(&self) -> f32 {
+        self.power_pct
+    }
+
+    /// Advances by one step for the throttle perturbation actually commanded this step.
+    pub fn advance(&mut self, throttle_perturbation: f32) {
+        self.power_pct =
+            self.model.pole * self.power_pct + self.model.gain_pct * throttle_perturbation;
+    }
+
+    /// Back to trim power.
+    pub fn reset(&mut self) {
+        self.power_pct = 0.0;
+    }
+}
+
+/// One channel's controller state and matrices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
+    k_x: SMatrix<f32, NU, NX>,
+    k_q: SMatrix<f32, NU, NY>,
+    c: SMatrix<f32, NY, NX>,
+    u_trim: [f32; NU],
+    q: SVector<f32, NY>,
+}
+
+/// Result of one channel step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChannelStep<const NU: usize> {
+    /// Requested absolute inputs (trim plus perturbation), before saturation.
+    pub u_requested: [f32; NU],
+    /// True when at least one integrator was frozen by anti-windup.
+    pub frozen: bool,
+}
+
+impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
+    /// Builds a channel from its generated gains, the lever-arm rows for the believed camera
+    /// position and the trim inputs.
+    pub fn new(g: &ChannelGains<NX, NY, NU>, c_lever: &[[f32; NX]; NY], u_trim: [f32; NU]) -> Self {
+        Self {
+            k_x: SMatrix::from_fn(|r, c| g.k_state[r][c]),
+            k_q: SMatrix::from_fn(|r, c| g.k_integral[r][c]),
+            c: SMatrix::from_fn(|r, c| g.c_cg[r][c] + c_lever[r][c]),
+            u_trim,
+            q: SVector::zeros(),
+        }
+    }
+
+    /// Camera velocity relative to the tanker predicted from the design state, `C x`.
+    pub fn camera_velocity(&self, x: &SVector<f32, NX>) -> SVector<f32, NY> {
+        self.c * x
+    }
+
+    /// Integrator states (integral of the velocity error: a position error), m.
+    pub fn integrators(&self) -> &SVector<f32, NY> {
+        &self.q
+    }
+
+    /// Zeroes the integrators.
+    pub fn reset(&mut self) {
+        self.q = SVector::zeros();
+    }
+
+    /// The control law: absolute requested inputs for state `x` and the current integrators.
+    pub fn command(&self, x: &SVector<f32, NX>) -> [f32; NU] {
+        let du = self.k_x * x + self.k_q * self.q;
+        core::array::from_fn(|i| self.u_trim[i] - du[i])
+    }
+
+    /// Advances the integrators by one step given the tracking error and the saturation side
+    /// (`+1`, `-1`, `0`) of each input this step. Returns true when any integrator froze.
+    pub fn integrate(
+        &mut self,
+        x: &SVector<f32, NX>,
+        v_des: &SVector<f32, NY>,
+        sat_side: &[i8; NU],
+        ts_s: f32,
+        limit_m: f32,
+    ) -> bool {
+        let dq = (self.camera_velocity(x) - v_des) * ts_s;
+        let mut frozen = false;
+        for i in 0..NY {
+            // The update changes input j by -K_q[j, i] dq[i]; freeze if that deepens a limit.
+            let deepens =
+                (0..NU).any(|j| f32::from(sat_side[j]) * (-self.k_q[(j, i)] * dq[i]) > 0.0);
+            if deepens {
+                frozen = true;
+            } else {
+                self.q[i] = (self.q[i] + dq[i]).clamp(-limit_m, limit_m);
+            }
+        }
+        frozen
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v1(v: f32) -> SVector<f32, 1> {
+        SVector::<f32, 1>::from([v])
+    }
+
+    #[test]
+    fn engine_estimate_follows_its_discrete_model() {
+        let mut e = EngineEstimate::new(EngineModel {
+            pole: 0.98,
+            gain_pct: 1.3,
+        });
+        e.advance(0.1);
+        assert!((e.power_pct() - 0.13).abs() < 1e-7);
+        e.advance(0.0);
+        assert!((e.power_pct() - 0.98 * 0.13).abs() < 1e-7);
+        e.reset();
+        assert_eq!(e.power_pct(), 0.0);
+    }
+
+    fn channel() -> Channel<1, 1, 1> {
+        let g = ChannelGains {
+            k_state: [[2.0]],
+            k_integral: [[0.5]],
+            c_cg: [[1.0]],
+        };
+        Channel::new(&g, &[[0.0]], [0.1])
+    }
+
+    #[test]
+    fn law_and_integrator_follow_the_design_equations() {
+        let mut ch = channel();
+        let x = v1(0.2);
+        assert!((ch.command(&x)[0] - (0.1 - 2.0 * 0.2)).abs() < 1e-7);
+        ch.integrate(&x, &v1(1.0), &[0], 0.02, 10.0);
+        assert!((ch.integrators()[0] - 0.02 * (0.2 - 1.0)).abs() < 1e-7);
+        let q = ch.integrators()[0];
+        assert!((ch.command(&x)[0] - (0.1 - 2.0 * 0.2 - 0.5 * q)).abs() < 1e-7);
+    }
+
+    #[test]
+    fn anti_windup_freezes_only_when_the_update_deepens_saturation() {
+        let mut ch = channel();
+        let x = v1(0.0);
+        // Error -1 per step: dq < 0, so u = -K_q q grows: deepens an upper limit.
+        assert!(ch.integrate(&x, &v1(1.0), &[1], 0.02, 10.0));
+        assert_eq!(ch.integrators()[0], 0.0);
+        // The same update against a lower limit unwinds it: allowed.
+        assert!(!ch.integrate(&x, &v1(1.0), &[-1], 0.02, 10.0));
+        assert!(ch.integrators()[0] < 0.0);
+    }
+
+    #[test]
+    fn integrators_are_clamped() {
+        let mut ch = channel();
+        for _ in 0..1000 {
+            ch.integrate(&v1(100.0), &v1(0.0), &[0], 0.02, 5.0);
+        }
+        assert_eq!(ch.integrators()[0], 5.0);
+    }
+}

@@ -1,0 +1,269 @@
+//! Camera measurement: the raw frame from the drogue tracker and its validation.
+//!
+//! Place in the data flow: first stage of a step. A [`CameraMeasurement`] either becomes an
+//! [`ImageFeature`] (image error and depth the outer loop may use) or a named
+//! [`MeasurementError`] that the controller counts and answers (hold, then break away;
+//! `docs/conventions.md`, "Input validation").
+//!
+//! Invariant: an [`ImageFeature`] is finite, its depth is in `(0, max_depth_m]` and its image
+//! point is inside the configured field of view.
+
+use serde::{Deserialize, Serialize};
+
+/// One frame from the drogue tracker, as it arrives (nothing here is trusted yet).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CameraMeasurement {
+    /// Frame counter from the camera, incremented once per captured frame (wraps).
+    pub seq: u32,
+    /// The tracker's own lock flag: false when it did not find the drogue in this frame.
+    pub tracked: bool,
+    /// Drogue centre, normalised image x (`x_c / z_c`, right positive), dimensionless.
+    pub image_x: f32,
+    /// Drogue centre, normalised image y (`y_c / z_c`, down positive), dimensionless.
+    pub image_y: f32,
+    /// Depth of the drogue plane along the camera boresight, m.
+    pub depth_m: f32,
+}
+
+/// Why a frame was not used. Each variant has its own counter in
+/// [`crate::controller::Counters`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MeasurementError {
+    /// The tracker reported no lock.
+    NotTracked,
+    /// Image point or depth is NaN or infinite.
+    NonFinite,
+    /// Depth is zero or negative.
+    DepthNotPositive,
+    /// Depth exceeds [`MeasurementLimits::max_depth_m`].
+    DepthTooLarge,
+    /// The image point lies outside the camera's field of view.
+    OutsideFieldOfView,
+    /// Same sequence number as the last frame: no new frame arrived this step.
+    Repeated,
+    /// Sequence number older than the last frame's (late or reordered frame).
+    OutOfOrder,
+}
+
+/// Plausibility limits for a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MeasurementLimits {
+    /// Largest credible depth, m. The docking approach starts within about 10 m.
+    pub max_depth_m: f32,
+    /// Half field of view, horizontal, as the normalised image coordinate of the edge
+    /// (`tan` of the half angle): 320 px / 500 px for the default 640x480, f = 500 px camera.
+    pub half_fov_x: f32,
+    /// Half field of view, vertical, as a normalised coordinate: 240 px / 500 px.
+    pub half_fov_y: f32,
+}
+
+impl Default for MeasurementLimits {
+    fn default() -> Self {
+        Self {
+            max_depth_m: 50.0,
+            half_fov_x: 0.64,
+            half_fov_y: 0.48,
+        }
+    }
+}
+
+/// A validated image feature: image error (paper eq. (2)) and depth.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageFeature {
+    /// Drogue centre, normalised image x.
+    pub image_x: f32,
+    /// Drogue centre, normalised image y.
+    pub image_y: f32,
+    /// Depth of the drogue plane, m.
+    pub depth_m: f32,
+}
+
+/// Tracks the frame sequence: detects repeated and reordered frames and counts dropped ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SequenceTracker {
+    last_seq: Option<u32>,
+}
+
+/// What [`SequenceTracker::observe`] learnt from one sequence number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SequenceCheck {
+    /// A new frame; `dropped` frames were skipped since the previous one.
+    New {
+        /// Frames the camera numbered but that never arrived.
+        dropped: u32,
+    },
+    /// Not a new frame.
+    Rejected(MeasurementError),
+}
+
+impl SequenceTracker {
+    /// Classifies `seq` against the last new frame and remembers it if it is new.
+    ///
+    /// Wrapping is handled: a forward step of less than 2^31 is new, anything else is late.
+    pub fn observe(&mut self, seq: u32) -> SequenceCheck {
+        let Some(last) = self.last_seq else {
+            self.last_seq = Some(seq);
+            return SequenceCheck::New { dropped: 0 };
+        };
+        let step = seq.wrapping_sub(last);
+        if step == 0 {
+            SequenceCheck::Rejected(MeasurementError::Repeated)
+        } else if step >= 1 << 31 {
+            SequenceCheck::Rejected(MeasurementError::OutOfOrder)
+        } else {
+            self.last_seq = Some(seq);
+            SequenceCheck::New { dropped: step - 1 }
+        }
+    }
+
+    /// Forgets the last frame (used when the controller is reset to standby).
+    pub fn reset(&mut self) {
+        self.last_seq = None;
+    }
+}
+
+impl CameraMeasurement {
+    /// Checks the frame's content (not its sequence) against `limits`.
+    pub fn validate(&self, limits: &MeasurementLimits) -> Result<ImageFeature, MeasurementError> {
+        if !self.tracked {
+            return Err(MeasurementError::NotTracked);
+        }
+        if !(self.image_x.is_finite() && self.image_y.is_finite() && self.depth_m.is_finite()) {
+            return Err(MeasurementError::NonFinite);
+        }
+        if self.depth_m <= 0.0 {
+            return Err(MeasurementError::DepthNotPositive);
+        }
+        if self.depth_m > limits.max_depth_m {
+            return Err(MeasurementError::DepthTooLarge);
+        }
+        if libm::fabsf(self.image_x) > limits.half_fov_x
+            || libm::fabsf(self.image_y) > limits.half_fov_y
+        {
+            return Err(MeasurementError::OutsideFieldOfView);
+        }
+        Ok(ImageFeature {
+            image_x: self.image_x,
+            image_y: self.image_y,
+            depth_m: self.depth_m,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn good() -> CameraMeasurement {
+        CameraMeasurement {
+            seq: 1,
+            tracked: true,
+            image_x: 0.3,
+            image_y: -0.3,
+            depth_m: 6.0,
+        }
+    }
+
+    #[test]
+    fn accepts_a_plausible_frame() {
+        let f = good().validate(&MeasurementLimits::default()).unwrap();
+        assert_eq!((f.image_x, f.image_y, f.depth_m), (0.3, -0.3, 6.0));
+    }
+
+    #[test]
+    fn names_each_bad_content() {
+        let lim = MeasurementLimits::default();
+        let cases = [
+            (
+                CameraMeasurement {
+                    tracked: false,
+                    ..good()
+                },
+                MeasurementError::NotTracked,
+            ),
+            (
+                CameraMeasurement {
+                    image_x: f32::NAN,
+                    ..good()
+                },
+                MeasurementError::NonFinite,
+            ),
+            (
+                CameraMeasurement {
+                    depth_m: f32::INFINITY,
+                    ..good()
+                },
+                MeasurementError::NonFinite,
+            ),
+            (
+                CameraMeasurement {
+                    depth_m: 0.0,
+                    ..good()
+                },
+                MeasurementError::DepthNotPositive,
+            ),
+            (
+                CameraMeasurement {
+                    depth_m: -1.0,
+                    ..good()
+                },
+                MeasurementError::DepthNotPositive,
+            ),
+            (
+                CameraMeasurement {
+                    depth_m: 51.0,
+                    ..good()
+                },
+                MeasurementError::DepthTooLarge,
+            ),
+            (
+                CameraMeasurement {
+                    image_x: 0.65,
+                    ..good()
+                },
+                MeasurementError::OutsideFieldOfView,
+            ),
+            (
+                CameraMeasurement {
+                    image_y: -0.49,
+                    ..good()
+                },
+                MeasurementError::OutsideFieldOfView,
+            ),
+        ];
+        for (m, want) in cases {
+            assert_eq!(m.validate(&lim), Err(want), "{m:?}");
+        }
+    }
+
+    #[test]
+    fn sequence_counts_drops_and_rejects_repeats_and_late_frames() {
+        let mut s = SequenceTracker::default();
+        assert_eq!(s.observe(10), SequenceCheck::New { dropped: 0 });
+        assert_eq!(
+            s.observe(10),
+            SequenceCheck::Rejected(MeasurementError::Repeated)
+        );
+        assert_eq!(s.observe(13), SequenceCheck::New { dropped: 2 });
+        assert_eq!(
+            s.observe(12),
+            SequenceCheck::Rejected(MeasurementError::OutOfOrder)
+        );
+        assert_eq!(s.observe(14), SequenceCheck::New { dropped: 0 });
+    }
+
+    #[test]
+    fn sequence_wraps() {
+        let mut s = SequenceTracker::default();
+        s.observe(u32::MAX);
+        assert_eq!(s.observe(0), SequenceCheck::New { dropped: 0 });
+        assert_eq!(
+            s.observe(u32::MAX),
+            SequenceCheck::Rejected(MeasurementError::OutOfOrder)
+        );
+    }
+}

@@ -1,0 +1,213 @@
+//! Navigation input: the receiver's perturbation state from trim, and its validation.
+//!
+//! The states are those of the paper's eq. (1), split into the longitudinal and lateral
+//! channels, each a perturbation from the trim point in [`crate::gains::TRIM`]. Angles are
+//! relative to the trim attitude (heading relative to the tanker's track); speed relative to
+//! the trim (= tanker) ground speed.
+//!
+//! Invariant: a sample that passes [`NavSample::validate`] is finite and inside the envelope
+//! where the linear design is meaningful ([`NavEnvelope`]).
+
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+
+/// Longitudinal perturbation states `[x, h, theta, V, alpha, q]` (paper eq. (1)).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LonNav {
+    /// Position along the tanker x axis (forward), m. Not fed back (see `docs/conventions.md`).
+    pub x_fwd_m: f32,
+    /// Altitude, up positive, m. Not fed back.
+    pub h_up_m: f32,
+    /// Pitch angle, rad.
+    pub theta_rad: f32,
+    /// Ground speed, m/s.
+    pub v_mps: f32,
+    /// Angle of attack, rad.
+    pub alpha_rad: f32,
+    /// Body pitch rate, rad/s.
+    pub q_radps: f32,
+}
+
+/// Lateral perturbation states `[y, psi, phi, beta, p, r]` (paper eq. (1)).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LatNav {
+    /// Position along the tanker y axis (right), m. Not fed back.
+    pub y_right_m: f32,
+    /// Heading relative to the tanker's track, rad.
+    pub psi_rad: f32,
+    /// Bank angle, rad.
+    pub phi_rad: f32,
+    /// Sideslip angle, rad.
+    pub beta_rad: f32,
+    /// Body roll rate, rad/s.
+    pub p_radps: f32,
+    /// Body yaw rate, rad/s.
+    pub r_radps: f32,
+}
+
+/// One navigation sample: both channels' perturbation states.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NavSample {
+    /// Longitudinal channel.
+    pub lon: LonNav,
+    /// Lateral channel.
+    pub lat: LatNav,
+}
+
+/// Why a navigation sample was not used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NavError {
+    /// A state is NaN or infinite.
+    NonFinite,
+    /// A state is outside [`NavEnvelope`]: the linear design does not hold there.
+    OutsideEnvelope,
+}
+
+/// Largest perturbations from trim the controller accepts (absolute values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NavEnvelope {
+    /// Pitch, angle of attack and heading perturbation limit, rad.
+    pub max_angle_rad: f32,
+    /// Bank angle limit, rad.
+    pub max_bank_rad: f32,
+    /// Sideslip limit, rad.
+    pub max_sideslip_rad: f32,
+    /// Speed perturbation limit, m/s.
+    pub max_speed_mps: f32,
+    /// Body-rate limit, rad/s.
+    pub max_rate_radps: f32,
+}
+
+impl Default for NavEnvelope {
+    /// Generous limits: 20 deg in pitch, alpha and heading, 45 deg of bank, 10 deg of
+    /// sideslip, 30 m/s and 1.5 rad/s. A docking approach stays far inside them.
+    fn default() -> Self {
+        Self {
+            max_angle_rad: 0.35,
+            max_bank_rad: 0.785,
+            max_sideslip_rad: 0.175,
+            max_speed_mps: 30.0,
+            max_rate_radps: 1.5,
+        }
+    }
+}
+
+impl NavSample {
+    /// All twelve states in the paper's order (lon then lat).
+    pub fn as_array(&self) -> [f32; 12] {
+        let (lo, la) = (&self.lon, &self.lat);
+        [
+            lo.x_fwd_m,
+            lo.h_up_m,
+            lo.theta_rad,
+            lo.v_mps,
+            lo.alpha_rad,
+            lo.q_radps,
+            la.y_right_m,
+            la.psi_rad,
+            la.phi_rad,
+            la.beta_rad,
+            la.p_radps,
+            la.r_radps,
+        ]
+    }
+
+    /// Checks the sample is finite and inside `env`.
+    pub fn validate(&self, env: &NavEnvelope) -> Result<(), NavError> {
+        if !self.as_array().iter().all(|v| v.is_finite()) {
+            return Err(NavError::NonFinite);
+        }
+        let (lo, la) = (&self.lon, &self.lat);
+        let within = |v: f32, lim: f32| libm::fabsf(v) <= lim;
+        let ok = within(lo.theta_rad, env.max_angle_rad)
+            && within(lo.alpha_rad, env.max_angle_rad)
+            && within(la.psi_rad, env.max_angle_rad)
+            && within(la.phi_rad, env.max_bank_rad)
+            && within(la.beta_rad, env.max_sideslip_rad)
+            && within(lo.v_mps, env.max_speed_mps)
+            && within(lo.q_radps, env.max_rate_radps)
+            && within(la.p_radps, env.max_rate_radps)
+            && within(la.r_radps, env.max_rate_radps);
+        if ok {
+            Ok(())
+        } else {
+            Err(NavError::OutsideEnvelope)
+        }
+    }
+
+    /// Longitudinal design state `[theta, V, alpha, q, P]` ([`crate::inner::LON_STATES`]).
+    /// The engine power perturbation `P` is not navigation: it comes from the controller's
+    /// engine model ([`crate::inner::EngineModel`]).
+    pub fn lon_design_state(&self, engine_power_pct: f32) -> SVector<f32, 5> {
+        let l = &self.lon;
+        SVector::<f32, 5>::new(
+            l.theta_rad,
+            l.v_mps,
+            l.alpha_rad,
+            l.q_radps,
+            engine_power_pct,
+        )
+    }
+
+    /// Lateral design state `[psi, phi, beta, p, r]` ([`crate::inner::LAT_STATES`]).
+    pub fn lat_design_state(&self) -> SVector<f32, 5> {
+        let l = &self.lat;
+        SVector::<f32, 5>::from([l.psi_rad, l.phi_rad, l.beta_rad, l.p_radps, l.r_radps])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_non_finite_and_out_of_envelope() {
+        let env = NavEnvelope::default();
+        let ok = NavSample::default();
+        assert_eq!(ok.validate(&env), Ok(()));
+        let mut nan = ok;
+        nan.lat.r_radps = f32::NAN;
+        assert_eq!(nan.validate(&env), Err(NavError::NonFinite));
+        let mut inf = ok;
+        inf.lon.x_fwd_m = f32::NEG_INFINITY;
+        assert_eq!(inf.validate(&env), Err(NavError::NonFinite));
+        let mut bank = ok;
+        bank.lat.phi_rad = 1.0;
+        assert_eq!(bank.validate(&env), Err(NavError::OutsideEnvelope));
+        let mut fast = ok;
+        fast.lon.v_mps = -31.0;
+        assert_eq!(fast.validate(&env), Err(NavError::OutsideEnvelope));
+    }
+
+    #[test]
+    fn design_states_pick_the_fed_back_states_in_order() {
+        let s = NavSample {
+            lon: LonNav {
+                x_fwd_m: 9.0,
+                h_up_m: 9.0,
+                theta_rad: 1.0,
+                v_mps: 2.0,
+                alpha_rad: 3.0,
+                q_radps: 4.0,
+            },
+            lat: LatNav {
+                y_right_m: 9.0,
+                psi_rad: 1.0,
+                phi_rad: 2.0,
+                beta_rad: 3.0,
+                p_radps: 4.0,
+                r_radps: 5.0,
+            },
+        };
+        assert_eq!(
+            s.lon_design_state(7.0).as_slice(),
+            &[1.0, 2.0, 3.0, 4.0, 7.0]
+        );
+        assert_eq!(s.lat_design_state().as_slice(), &[1.0, 2.0, 3.0, 4.0, 5.0]);
+    }
+}

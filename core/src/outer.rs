@@ -1,0 +1,286 @@
+//! Outer loop: from the validated image feature to a desired camera velocity.
+//!
+//! Two laws, selectable in [`crate::config::ControllerConfig::law`]:
+//! - [`ibvs`]: the paper's eq. (16), (18) and the closing-speed law of paper-notes item 2,
+//!   acting on the image error directly;
+//! - [`pbvs`]: the position-based baseline: the image point and depth are turned into a 3-D
+//!   drogue position through the *believed* camera mount and the navigation attitude, and a
+//!   Cartesian law acts on it (paper Sec. IV, experiment 2).
+//!
+//! Both return the desired velocity of the camera relative to the drogue in `re` axes
+//! (x right, y down, z forward) and the target estimate the mode logic uses.
+//!
+//! Invariant: for a validated feature (finite, depth > 0) and validated gains the output is
+//! finite, `|x| <= max_lateral_mps`, `|y| <= max_vertical_mps` and
+//! `min_closing_mps <= z <= max_closing_mps`.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::frames::{TargetEstimate, VelocityRe};
+use crate::kinematics::{self, CameraMount};
+use crate::measurement::ImageFeature;
+use crate::nav::NavSample;
+
+/// Gains of the IBVS law (paper Table 1 as defaults, in normalised image units).
+///
+/// The image error `e` is dimensionless (`x_c / z_c`), so `k1 e_x` is a speed: k1 and k2 are
+/// m/s per unit of normalised error. At depth `z`, `k1 / z` is the equivalent Cartesian
+/// gain in 1/s on the lateral offset (`e_x z`). k3 is 1/s on depth; k4, k5 are m/s per unit
+/// of normalised error, taken off the closing speed while the image error is large.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IbvsGains {
+    /// Lateral gain k1, m/s per unit normalised error.
+    pub k1_mps: f32,
+    /// Vertical gain k2, m/s per unit normalised error.
+    pub k2_mps: f32,
+    /// Closing gain k3 on depth, 1/s.
+    pub k3_per_s: f32,
+    /// Closing-speed reduction k4 for lateral image error, m/s per unit normalised error.
+    pub k4_mps: f32,
+    /// Closing-speed reduction k5 for vertical image error, m/s per unit normalised error.
+    pub k5_mps: f32,
+    /// Image convergence point `(x_o, y_o)` of eq. (2), normalised; the origin in the paper.
+    pub convergence_point: [f32; 2],
+}
+
+/// Gains of the PBVS baseline, Cartesian: the same structure as IBVS with the image error
+/// replaced by the reconstructed position offset.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PbvsGains {
+    /// Lateral gain on the rightward offset, 1/s.
+    pub k_lat_per_s: f32,
+    /// Vertical gain on the downward offset, 1/s.
+    pub k_vert_per_s: f32,
+    /// Closing gain on depth, 1/s.
+    pub k_close_per_s: f32,
+    /// Closing-speed reduction per metre of lateral offset, 1/s.
+    pub k_slow_lat_per_s: f32,
+    /// Closing-speed reduction per metre of vertical offset, 1/s.
+    pub k_slow_vert_per_s: f32,
+}
+
+/// Limits shared by both laws.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VelocityLimits {
+    /// Minimum closing speed `a` (paper eq. (22), read as paper-notes item 2 and 6), m/s.
+    /// Also the closing speed of the blind terminal phase; must lie in the coupling band.
+    pub min_closing_mps: f32,
+    /// Maximum closing speed, m/s.
+    pub max_closing_mps: f32,
+    /// Maximum lateral speed command, m/s.
+    pub max_lateral_mps: f32,
+    /// Maximum vertical speed command, m/s.
+    pub max_vertical_mps: f32,
+    /// Largest change of the desired velocity per second, each axis, m/s^2: the commands
+    /// the inner loops track are slewed toward the law's output (and the mode's), so that
+    /// engaging, entering the blind phase or breaking away never steps the inner loops.
+    pub max_accel_mps2: f32,
+}
+
+/// What the outer loop produces in one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OuterOutput {
+    /// Desired camera velocity relative to the drogue, `re` axes.
+    pub v_des: VelocityRe,
+    /// Where the law believes the drogue is.
+    pub target: TargetEstimate,
+}
+
+fn closing_speed(raw_mps: f32, lim: &VelocityLimits) -> f32 {
+    // max(raw, a) then the upper limit; a <= max is a validated config invariant.
+    raw_mps.max(lim.min_closing_mps).min(lim.max_closing_mps)
+}
+
+fn clamp_sym(v: f32, limit: f32) -> f32 {
+    v.clamp(-limit, limit)
+}
+
+/// Moves `from` toward `to` by at most `max_step` on each axis.
+pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
+    let step = |a: f32, b: f32| a + clamp_sym(b - a, max_step);
+    VelocityRe {
+        x_right_mps: step(from.x_right_mps, to.x_right_mps),
+        y_down_mps: step(from.y_down_mps, to.y_down_mps),
+        z_fwd_mps: step(from.z_fwd_mps, to.z_fwd_mps),
+    }
+}
+
+/// IBVS law: `v_x = k1 e_x`, `v_y = k2 e_y`,
+/// `v_z = min(max(k3 z - k4 |e_x| - k5 |e_y|, a), v_max)`, lateral and vertical saturated.
+pub fn ibvs(f: &ImageFeature, g: &IbvsGains, lim: &VelocityLimits) -> OuterOutput {
+    let e_x = f.image_x - g.convergence_point[0];
+    let e_y = f.image_y - g.convergence_point[1];
+    let z = f.depth_m;
+    let raw_close = g.k3_per_s * z - g.k4_mps * libm::fabsf(e_x) - g.k5_mps * libm::fabsf(e_y);
+    OuterOutput {
+        v_des: VelocityRe {
+            x_right_mps: clamp_sym(g.k1_mps * e_x, lim.max_lateral_mps),
+            y_down_mps: clamp_sym(g.k2_mps * e_y, lim.max_vertical_mps),
+            z_fwd_mps: closing_speed(raw_close, lim),
+        },
+        target: TargetEstimate {
+            right_m: f.image_x * z,
+            down_m: f.image_y * z,
+            depth_m: z,
+        },
+    }
+}
+
+/// What PBVS believes about the airframe geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PbvsGeometry {
+    /// Believed camera mount.
+    pub camera: CameraMount,
+    /// Probe tip relative to the CG, body axes, m.
+    pub probe_tip_body_m: [f32; 3],
+    /// Trim pitch the navigation perturbations are relative to, rad.
+    pub trim_pitch_rad: f32,
+}
+
+/// Drogue centre relative to the probe tip in tanker axes, reconstructed from the image point,
+/// the depth, the believed mount and the navigation attitude.
+pub fn pbvs_drogue_from_probe_tanker_m(
+    f: &ImageFeature,
+    nav: &NavSample,
+    geo: &PbvsGeometry,
+) -> Vector3<f32> {
+    let drogue_cam = Vector3::new(f.image_x * f.depth_m, f.image_y * f.depth_m, f.depth_m);
+    let cam = Vector3::from(geo.camera.position_body_m);
+    let probe = Vector3::from(geo.probe_tip_body_m);
+    let drogue_from_probe_body =
+        cam - probe + kinematics::body_from_camera(geo.camera.pitch_down_rad) * drogue_cam;
+    let t_from_b = kinematics::tanker_from_body(
+        nav.lat.phi_rad,
+        geo.trim_pitch_rad + nav.lon.theta_rad,
+        nav.lat.psi_rad,
+    );
+    t_from_b * drogue_from_probe_body
+}
+
+/// PBVS law on the reconstructed offset `r` (tanker axes): `v_right = k_lat r_y`,
+/// `v_down = k_vert r_z`, `v_fwd = min(max(k_close r_x - k_slow_lat |r_y| - k_slow_vert |r_z|, a), v_max)`.
+pub fn pbvs(
+    f: &ImageFeature,
+    nav: &NavSample,
+    geo: &PbvsGeometry,
+    g: &PbvsGains,
+    lim: &VelocityLimits,
+) -> OuterOutput {
+    let r = pbvs_drogue_from_probe_tanker_m(f, nav, geo);
+    let raw_close = g.k_close_per_s * r.x
+        - g.k_slow_lat_per_s * libm::fabsf(r.y)
+        - g.k_slow_vert_per_s * libm::fabsf(r.z);
+    OuterOutput {
+        v_des: VelocityRe {
+            x_right_mps: clamp_sym(g.k_lat_per_s * r.y, lim.max_lateral_mps),
+            y_down_mps: clamp_sym(g.k_vert_per_s * r.z, lim.max_vertical_mps),
+            z_fwd_mps: closing_speed(raw_close, lim),
+        },
+        target: TargetEstimate {
+            right_m: r.y,
+            down_m: r.z,
+            depth_m: r.x,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::ControllerConfig;
+
+    fn feature(x: f32, y: f32, z: f32) -> ImageFeature {
+        ImageFeature {
+            image_x: x,
+            image_y: y,
+            depth_m: z,
+        }
+    }
+
+    #[test]
+    fn ibvs_signs_drive_toward_the_drogue() {
+        let c = ControllerConfig::default();
+        // Drogue right of and above the boresight: move right, move up (negative down), close.
+        let o = ibvs(&feature(0.2, -0.1, 5.0), &c.ibvs, &c.velocity_limits);
+        assert!(o.v_des.x_right_mps > 0.0);
+        assert!(o.v_des.y_down_mps < 0.0);
+        assert!(o.v_des.z_fwd_mps >= c.velocity_limits.min_closing_mps);
+        assert_eq!(
+            o.target,
+            TargetEstimate {
+                right_m: 1.0,
+                down_m: -0.5,
+                depth_m: 5.0
+            }
+        );
+    }
+
+    #[test]
+    fn ibvs_closing_speed_is_floored_slowed_by_error_and_capped() {
+        let c = ControllerConfig::default();
+        let (g, lim) = (&c.ibvs, &c.velocity_limits);
+        // Far and centred: k3 z above the cap.
+        assert_eq!(
+            ibvs(&feature(0.0, 0.0, 40.0), g, lim).v_des.z_fwd_mps,
+            lim.max_closing_mps
+        );
+        // Centred at mid range: exactly k3 z.
+        let z = (lim.min_closing_mps + lim.max_closing_mps) / 2.0 / g.k3_per_s;
+        let v = ibvs(&feature(0.0, 0.0, z), g, lim).v_des.z_fwd_mps;
+        assert!((v - g.k3_per_s * z).abs() < 1e-5);
+        // The same depth with image error closes more slowly.
+        let slower = ibvs(&feature(0.05, 0.05, z), g, lim).v_des.z_fwd_mps;
+        assert!(slower < v);
+        // Near: floored at a.
+        assert_eq!(
+            ibvs(&feature(0.0, 0.0, 0.1), g, lim).v_des.z_fwd_mps,
+            lim.min_closing_mps
+        );
+    }
+
+    #[test]
+    fn slew_limits_each_axis() {
+        let from = VelocityRe {
+            x_right_mps: 0.0,
+            y_down_mps: 1.0,
+            z_fwd_mps: 0.5,
+        };
+        let to = VelocityRe {
+            x_right_mps: 1.0,
+            y_down_mps: -1.0,
+            z_fwd_mps: 0.51,
+        };
+        let v = slew(&from, &to, 0.1);
+        assert_eq!((v.x_right_mps, v.y_down_mps), (0.1, 0.9));
+        assert!((v.z_fwd_mps - 0.51).abs() < 1e-7);
+    }
+
+    #[test]
+    fn pbvs_reconstructs_the_offset_at_trim() {
+        let c = ControllerConfig::default();
+        let geo = c.pbvs_geometry();
+        // Camera at the probe tip, level boresight at trim: offset = image point * depth.
+        let r =
+            pbvs_drogue_from_probe_tanker_m(&feature(0.25, -0.5, 4.0), &NavSample::default(), &geo);
+        assert!((r - Vector3::new(4.0, 1.0, -2.0)).norm() < 1e-5, "{r:?}");
+    }
+
+    #[test]
+    fn pbvs_is_biased_by_a_mount_error() {
+        let mut c = ControllerConfig::default();
+        c.camera.position_body_m[2] += -0.5; // believed 0.5 m higher than it is
+        let r = pbvs_drogue_from_probe_tanker_m(
+            &feature(0.0, 0.0, 4.0),
+            &NavSample::default(),
+            &c.pbvs_geometry(),
+        );
+        assert!(
+            (r.z - (-0.5 * libm::cosf(c.pbvs_geometry().trim_pitch_rad))).abs() < 1e-5,
+            "{r:?}"
+        );
+    }
+}

@@ -1,0 +1,2 @@
+//! Flight-computer binary (placeholder).
+fn main() {}
