@@ -1,0 +1,444 @@
+//! Gain synthesis: from the trimmed, linearised receiver to the discrete LQR gains that the
+//! core's inner loops run.
+//!
+//! Per channel (paper eq. (25)-(35), read as paper-notes items 1, 4, 5 and 9):
+//! 1. take the channel's block `(A, B)` of the linear model and its camera-velocity output
+//!    `C = C_cg + C_lever(p_cam)`;
+//! 2. discretise the plant by zero-order hold at `Ts`: `(Ad, Bd)`;
+//! 3. augment with the integrators the core implements, `q[k+1] = q[k] + Ts (C x[k] - r[k])`:
+//!    `A_aug = [[Ad, 0], [Ts C, I]]`, `B_aug = [[Bd], [0]]`;
+//! 4. solve the discrete Riccati equation for the weights `Q`, `R` and form `K`,
+//!    `u = -K [x; q]`.
+//!
+//! Invariant: a [`Synthesis`] only exists if every Riccati solution has a small residual and
+//! every closed loop `A_aug - B_aug K` has its eigenvalues strictly inside the unit circle.
+
+pub mod codegen;
+pub mod linalg;
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::linearize::{self, LAT, LON, LinearModel};
+use crate::receiver::{F16, ModelError, Trim, TrimError};
+use ibvs_core::inner::{LAT_INPUTS, LAT_OUTPUTS, LAT_STATES, LON_INPUTS, LON_OUTPUTS, LON_STATES};
+use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
+use linalg::{DareError, dare, dare_residual, spectral_radius, zoh};
+
+/// The refuelling flight condition (model-data.md): tanker speed, m/s.
+pub const REFUELLING_SPEED_MPS: f64 = 120.0;
+/// The refuelling flight condition: altitude, m.
+pub const REFUELLING_ALTITUDE_M: f64 = 3000.0;
+/// Nominal cg position, fraction of the mean chord.
+pub const NOMINAL_XCG: f64 = 0.35;
+/// Control period the core runs at, s.
+pub const CONTROL_PERIOD_S: f64 = 0.02;
+/// Probe tip (and camera, paper Assumption 3) relative to the CG, body axes, m (model-data.md).
+pub const PROBE_TIP_BODY_M: [f64; 3] = [6.06, 0.54, -0.86];
+
+/// Largest accepted relative Riccati residual.
+pub const MAX_RICCATI_RESIDUAL: f64 = 1e-9;
+
+/// Diagonal LQR weights of both channels.
+///
+/// Our judgement, by Bryson's rule (weight = 1 / acceptable value^2) from the authors'
+/// starting point (model-data.md, "Gains"), with our SI units: states in rad, m/s, rad/s;
+/// integrators in m (they integrate a velocity error); elevator, aileron, rudder in rad;
+/// throttle as a fraction.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DesignWeights {
+    /// Longitudinal `Q` diagonal: `[theta, V, alpha, q, P, q_down, q_fwd]`.
+    pub lon_q: [f64; 7],
+    /// Longitudinal `R` diagonal: `[elevator, throttle]`.
+    pub lon_r: [f64; 2],
+    /// Lateral `Q` diagonal: `[psi, phi, beta, p, r, q_right]`.
+    pub lat_q: [f64; 6],
+    /// Lateral `R` diagonal: `[aileron, rudder]`.
+    pub lat_r: [f64; 2],
+}
+
+impl Default for DesignWeights {
+    fn default() -> Self {
+        Self {
+            lon_q: [100.0, 0.0, 100.0, 100.0, 0.0, 1000.0, 400.0],
+            lon_r: [400.0, 400.0],
+            lat_q: [100.0, 100.0, 100.0, 100.0, 100.0, 400.0],
+            lat_r: [400.0, 400.0],
+        }
+    }
+}
+
+/// Why the synthesis failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SynthesisError {
+    /// The model could not be built.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// No trim.
+    #[error(transparent)]
+    Trim(#[from] TrimError),
+    /// No Riccati solution.
+    #[error("{channel} channel: {source}")]
+    Riccati {
+        /// "lon" or "lat".
+        channel: &'static str,
+        /// The solver's error.
+        source: DareError,
+    },
+    /// The engine power depends on more than power and throttle in the linear model.
+    #[error(
+        "lon channel: the engine row of the plant is coupled to other states; the core's engine model would be wrong"
+    )]
+    EngineCoupled,
+    /// A solution was found but fails its checks.
+    #[error(
+        "{channel} channel: Riccati residual {residual:e}, closed-loop spectral radius {radius}"
+    )]
+    Unacceptable {
+        /// "lon" or "lat".
+        channel: &'static str,
+        /// Relative residual.
+        residual: f64,
+        /// Largest closed-loop eigenvalue modulus.
+        radius: f64,
+    },
+}
+
+/// One channel's discrete design, as it goes into the generated module and `gains --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelDesign {
+    /// Design state names (plant states, then integrators).
+    pub states: Vec<String>,
+    /// Input names.
+    pub inputs: Vec<String>,
+    /// Tracked output names.
+    pub outputs: Vec<String>,
+    /// Discrete augmented state matrix, row-major.
+    #[serde(rename = "A", serialize_with = "rows")]
+    pub a: DMatrix<f64>,
+    /// Discrete augmented input matrix.
+    #[serde(rename = "B", serialize_with = "rows")]
+    pub b: DMatrix<f64>,
+    /// State weight.
+    #[serde(rename = "Q", serialize_with = "rows")]
+    pub q: DMatrix<f64>,
+    /// Input weight.
+    #[serde(rename = "R", serialize_with = "rows")]
+    pub r: DMatrix<f64>,
+    /// Gain, `u = -K [x; q]`.
+    #[serde(rename = "K", serialize_with = "rows")]
+    pub k: DMatrix<f64>,
+    /// Riccati solution.
+    #[serde(rename = "P", serialize_with = "rows")]
+    pub p: DMatrix<f64>,
+    /// Camera-velocity output matrix from CG motion (continuous-time states).
+    #[serde(rename = "C_cg", serialize_with = "rows")]
+    pub c_cg: DMatrix<f64>,
+    /// Full output matrix used in the design (CG plus lever arm at the design camera position).
+    #[serde(rename = "C", serialize_with = "rows")]
+    pub c: DMatrix<f64>,
+    /// Sample period, s.
+    pub ts: f64,
+    /// Relative Riccati residual.
+    pub riccati_residual: f64,
+    /// Largest closed-loop eigenvalue modulus.
+    pub closed_loop_spectral_radius: f64,
+}
+
+fn rows<S: serde::Serializer>(m: &DMatrix<f64>, s: S) -> Result<S::Ok, S::Error> {
+    let v: Vec<Vec<f64>> = m.row_iter().map(|r| r.iter().copied().collect()).collect();
+    v.serialize(s)
+}
+
+/// The whole synthesis: trim, linear model and both channel designs.
+#[derive(Debug, Clone, Serialize)]
+pub struct Synthesis {
+    /// Trim point.
+    pub trim: Trim,
+    /// Camera position the lever-arm terms assume, body axes, m.
+    pub camera_body_m: [f64; 3],
+    /// Weights used.
+    pub weights: DesignWeights,
+    /// Longitudinal design.
+    pub lon: ChannelDesign,
+    /// Lateral design.
+    pub lat: ChannelDesign,
+    /// The engine row of the discrete longitudinal plant: `(pole, gain per unit throttle)`.
+    pub engine_model: (f64, f64),
+    /// The continuous linear model (not serialised: the channel blocks are).
+    #[serde(skip)]
+    pub linear: LinearModel,
+}
+
+fn names(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+fn diag(d: &[f64]) -> DMatrix<f64> {
+    DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(d))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn design_channel(
+    channel: &'static str,
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c_cg: DMatrix<f64>,
+    c: DMatrix<f64>,
+    q_diag: &[f64],
+    r_diag: &[f64],
+    ts: f64,
+    labels: (Vec<String>, Vec<String>, Vec<String>),
+) -> Result<ChannelDesign, SynthesisError> {
+    let (n, ny, nu) = (a.nrows(), c.nrows(), b.ncols());
+    let (ad, bd) = zoh(&a, &b, ts);
+    let mut a_aug = DMatrix::zeros(n + ny, n + ny);
+    a_aug.view_mut((0, 0), (n, n)).copy_from(&ad);
+    a_aug.view_mut((n, 0), (ny, n)).copy_from(&(&c * ts));
+    a_aug.view_mut((n, n), (ny, ny)).fill_with_identity();
+    let mut b_aug = DMatrix::zeros(n + ny, nu);
+    b_aug.view_mut((0, 0), (n, nu)).copy_from(&bd);
+    let (q, r) = (diag(q_diag), diag(r_diag));
+    let (p, k) = dare(&a_aug, &b_aug, &q, &r)
+        .map_err(|source| SynthesisError::Riccati { channel, source })?;
+    let residual = dare_residual(&a_aug, &b_aug, &q, &r, &p);
+    let radius = spectral_radius(&(&a_aug - &b_aug * &k));
+    if !(residual < MAX_RICCATI_RESIDUAL && radius < 1.0) {
+        return Err(SynthesisError::Unacceptable {
+            channel,
+            residual,
+            radius,
+        });
+    }
+    let (mut states, inputs, outputs) = labels;
+    states.extend(outputs.iter().map(|o| format!("int_{o}_m")));
+    Ok(ChannelDesign {
+        states,
+        inputs,
+        outputs,
+        a: a_aug,
+        b: b_aug,
+        q,
+        r,
+        k,
+        p,
+        c_cg,
+        c,
+        ts,
+        riccati_residual: residual,
+        closed_loop_spectral_radius: radius,
+    })
+}
+
+/// Index of the engine power in the longitudinal design state.
+const LON_ENGINE: usize = 4;
+
+/// The engine row of the discrete longitudinal plant. The core runs it as an open-loop
+/// model of its own throttle commands, which is exact only if the row is decoupled: power
+/// depends on power and throttle alone. Checked here.
+fn engine_row(lon: &ChannelDesign) -> Result<(f64, f64), SynthesisError> {
+    let (a, b) = (&lon.a, &lon.b);
+    let coupled = (0..a.ncols()).any(|j| j != LON_ENGINE && a[(LON_ENGINE, j)].abs() > 1e-9)
+        || b[(LON_ENGINE, 0)].abs() > 1e-9;
+    if coupled {
+        return Err(SynthesisError::EngineCoupled);
+    }
+    Ok((a[(LON_ENGINE, LON_ENGINE)], b[(LON_ENGINE, 1)]))
+}
+
+/// Trims, linearises and designs both channels.
+pub fn synthesize(
+    model: &F16,
+    speed_mps: f64,
+    altitude_m: f64,
+    ts_s: f64,
+    camera_body_m: [f64; 3],
+    weights: &DesignWeights,
+) -> Result<Synthesis, SynthesisError> {
+    let trim = model.trim_straight_level(speed_mps, altitude_m)?;
+    let linear = linearize::linearize(model, &trim);
+    let lon_lever = DMatrix::from_fn(2, LON.len(), |r, c| {
+        lever_arm_lon(camera_body_m, trim.theta_rad)[r][c]
+    });
+    let lat_lever = DMatrix::from_fn(1, LAT.len(), |r, c| lever_arm_lat(camera_body_m)[r][c]);
+    let lon_c_cg = linear
+        .c_cg
+        .view((0, LON.start), (2, LON.len()))
+        .into_owned();
+    let lat_c_cg = linear
+        .c_cg
+        .view((2, LAT.start), (1, LAT.len()))
+        .into_owned();
+    let lon = design_channel(
+        "lon",
+        linear
+            .a
+            .view((LON.start, LON.start), (LON.len(), LON.len()))
+            .into_owned(),
+        linear.b.view((LON.start, 0), (LON.len(), 2)).into_owned(),
+        lon_c_cg.clone(),
+        &lon_c_cg + lon_lever,
+        &weights.lon_q,
+        &weights.lon_r,
+        ts_s,
+        (names(&LON_STATES), names(&LON_INPUTS), names(&LON_OUTPUTS)),
+    )?;
+    let lat = design_channel(
+        "lat",
+        linear
+            .a
+            .view((LAT.start, LAT.start), (LAT.len(), LAT.len()))
+            .into_owned(),
+        linear.b.view((LAT.start, 2), (LAT.len(), 2)).into_owned(),
+        lat_c_cg.clone(),
+        &lat_c_cg + lat_lever,
+        &weights.lat_q,
+        &weights.lat_r,
+        ts_s,
+        (names(&LAT_STATES), names(&LAT_INPUTS), names(&LAT_OUTPUTS)),
+    )?;
+    let engine_model = engine_row(&lon)?;
+    Ok(Synthesis {
+        trim,
+        camera_body_m,
+        weights: weights.clone(),
+        lon,
+        lat,
+        engine_model,
+        linear,
+    })
+}
+
+/// The synthesis the checked-in core gains come from: refuelling condition, nominal cg,
+/// camera at the probe tip, default weights.
+pub fn nominal() -> Result<Synthesis, SynthesisError> {
+    let model = F16::new(NOMINAL_XCG)?;
+    synthesize(
+        &model,
+        REFUELLING_SPEED_MPS,
+        REFUELLING_ALTITUDE_M,
+        CONTROL_PERIOD_S,
+        PROBE_TIP_BODY_M,
+        &DesignWeights::default(),
+    )
+}
+
+/// Response of a channel's discrete closed loop (the design model) to a step of `r` in the
+/// commanded output velocities, from equilibrium: the tracked outputs `C x` at every step.
+pub fn closed_loop_step(d: &ChannelDesign, r: &[f64], steps: usize) -> Vec<Vec<f64>> {
+    let (n_aug, ny) = (d.a.nrows(), d.c.nrows());
+    let n = n_aug - ny;
+    let acl = &d.a - &d.b * &d.k;
+    let mut x = nalgebra::DVector::zeros(n_aug);
+    let r = nalgebra::DVector::from_column_slice(r);
+    let mut out = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let y = &d.c * x.rows(0, n);
+        out.push(y.iter().copied().collect());
+        let mut next = &acl * &x;
+        let mut q = next.rows_mut(n, ny);
+        q -= &r * d.ts;
+        x = next;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rise time to 90 % (s), overshoot (%), final value, and the largest excursion of the
+    /// other outputs, for a unit step on output `i`.
+    fn step_metrics(d: &ChannelDesign, i: usize) -> (f64, f64, f64, f64) {
+        let mut r = vec![0.0; d.c.nrows()];
+        r[i] = 1.0;
+        let y = closed_loop_step(d, &r, 500);
+        let rise = y
+            .iter()
+            .position(|v| v[i] >= 0.9)
+            .map_or(f64::INFINITY, |k| k as f64 * d.ts);
+        let peak = y.iter().map(|v| v[i]).fold(f64::MIN, f64::max);
+        let cross = y
+            .iter()
+            .flat_map(|v| {
+                v.iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, c)| c.abs())
+            })
+            .fold(0.0, f64::max);
+        (rise, (peak - 1.0) * 100.0, y[y.len() - 1][i], cross)
+    }
+
+    #[test]
+    fn nominal_design_is_stable_with_a_small_riccati_residual() {
+        let s = nominal().unwrap();
+        for d in [&s.lon, &s.lat] {
+            assert!(d.riccati_residual < 1e-12, "{}", d.riccati_residual);
+            assert!(
+                d.closed_loop_spectral_radius < 0.995,
+                "{}",
+                d.closed_loop_spectral_radius
+            );
+            // The solution really is the Riccati solution of the matrices reported.
+            assert!(dare_residual(&d.a, &d.b, &d.q, &d.r, &d.p) < 1e-12);
+        }
+        let (pole, gain) = s.engine_model;
+        assert!(
+            pole > 0.95 && pole < 1.0 && gain > 0.0,
+            "engine model {pole} {gain}"
+        );
+    }
+
+    #[test]
+    fn nominal_design_tracks_velocity_steps() {
+        // Design targets (the docking depends on them; see docs/conventions.md, "Inner loops"):
+        // 90 % rise within the stated time, overshoot below 10 %, no steady-state error, and
+        // less than 0.2 m/s of the other output per m/s commanded.
+        let s = nominal().unwrap();
+        for (name, d, i, rise_max) in [
+            ("down", &s.lon, 0, 1.0),
+            ("forward", &s.lon, 1, 2.5),
+            ("right", &s.lat, 0, 1.5),
+        ] {
+            let (rise, over, end, cross) = step_metrics(d, i);
+            assert!(rise < rise_max, "{name}: rise {rise} s");
+            assert!(over < 10.0, "{name}: overshoot {over} %");
+            assert!((end - 1.0).abs() < 0.01, "{name}: value after 10 s {end}");
+            assert!(cross < 0.2, "{name}: cross-coupling {cross}");
+        }
+    }
+
+    /// Smallest singular value of the PBH matrix `[A - I, B]`, scaled by the largest: zero
+    /// when the mode at 1 (an integrator) is uncontrollable.
+    fn pbh_at_one(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+        let n = a.nrows();
+        let mut m = DMatrix::zeros(n, n + b.ncols());
+        m.view_mut((0, 0), (n, n))
+            .copy_from(&(a - DMatrix::identity(n, n)));
+        m.view_mut((0, n), (n, b.ncols())).copy_from(b);
+        let sv = m.singular_values();
+        sv.min() / sv.max()
+    }
+
+    #[test]
+    fn the_papers_output_matrix_makes_the_integrator_uncontrollable() {
+        // Paper-notes item 4: eq. (13)-(14) keep only lever-arm terms in the vertical row,
+        // -x_c q. Its integral is -x_c theta plus a constant, so the augmented plant has a mode
+        // at 1 that no input moves: no stabilising Riccati solution exists. With the
+        // kinematic row (climb rate V0 (theta - alpha) plus the lever arm) it is controllable.
+        let s = nominal().unwrap();
+        let n = LON.len();
+        let mut c_paper = DMatrix::from_fn(2, n, |r, c| lever_arm_lon(s.camera_body_m, 0.0)[r][c]);
+        c_paper[(1, 1)] = 1.0; // the paper keeps V in the forward row
+        let mut a_paper = s.lon.a.clone();
+        a_paper
+            .view_mut((n, 0), (2, n))
+            .copy_from(&(&c_paper * s.lon.ts));
+        let paper = pbh_at_one(&a_paper, &s.lon.b);
+        let ours = pbh_at_one(&s.lon.a, &s.lon.b);
+        assert!(paper < 1e-9, "paper's C: {paper}");
+        assert!(ours > 1e-6, "kinematic C: {ours}");
+        assert!(dare(&a_paper, &s.lon.b, &s.lon.q, &s.lon.r).is_err());
+    }
+}
