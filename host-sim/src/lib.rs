@@ -1,0 +1,25 @@
+//! # host-sim: the docking controller's simulator
+//!
+//! Links the same `ibvs-core` the flight computer runs against full models of its world:
+//!
+//! ```text
+//! receiver (nonlinear 6-DOF F-16, actuators, engine) ──► world::nav ──► NavSample ─┐
+//!        ▲                      world::drogue ──► world::camera ──► frame ───────┤
+//!        │                                                                        ▼
+//!        └──── surface and throttle commands ◄── sim::FlightComputer (core, or firmware)
+//! ```
+//!
+//! It also designs the controller: [`receiver`] trims, [`linearize`] linearises,
+//! [`synthesis`] discretises and solves the Riccati equations, and writes the core's
+//! generated gains module. [`docking`] decides what counts as a dock; [`output`] writes the
+//! CSV, JSON and plots of a run.
+//!
+//! Invariant: every random process takes a seed (none in this slice: calm air, ideal camera).
+
+pub mod docking;
+pub mod linearize;
+pub mod output;
+pub mod receiver;
+pub mod sim;
+pub mod synthesis;
+pub mod world;

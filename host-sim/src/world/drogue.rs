@@ -1,0 +1,35 @@
+//! The drogue. In this slice it is held at its nominal steady trail position; the multi-link
+//! hose and drogue dynamics replace it later behind the same interface.
+//!
+//! Invariant: positions are in the tanker frame (x forward, y right, z down), metres.
+
+use nalgebra::Vector3;
+
+/// Nominal drogue position behind the tanker (steady trail of the hose), tanker frame, m
+/// (model-data.md, from the authors' simulation).
+pub const NOMINAL_DROGUE_TANKER_M: [f64; 3] = [-14.35, 0.0, 5.12];
+
+/// Capture radius of the drogue around its centre, m (the authors' docking check).
+pub const CAPTURE_RADIUS_M: f64 = 0.3;
+
+/// A drogue fixed in the tanker frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedDrogue {
+    /// Drogue centre (the capture plane's centre), tanker frame, m.
+    pub centre_tanker_m: Vector3<f64>,
+}
+
+impl Default for FixedDrogue {
+    fn default() -> Self {
+        Self {
+            centre_tanker_m: Vector3::from(NOMINAL_DROGUE_TANKER_M),
+        }
+    }
+}
+
+impl FixedDrogue {
+    /// Drogue centre at time `t_s`, tanker frame, m.
+    pub fn centre_tanker_m(&self, _t_s: f64) -> Vector3<f64> {
+        self.centre_tanker_m
+    }
+}
