@@ -1,0 +1,164 @@
+//! The command-line contract of `host-sim`: what `trim`, `gains` and `dock` print.
+
+use std::process::Command;
+
+use nalgebra::DMatrix;
+use serde_json::Value;
+
+fn host_sim(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("run host-sim");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+fn json(args: &[&str]) -> Value {
+    let (ok, stdout, stderr) = host_sim(args);
+    assert!(ok, "host-sim {args:?} failed: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("not JSON ({e}): {stdout}"))
+}
+
+fn matrix(v: &Value) -> DMatrix<f64> {
+    let rows: Vec<Vec<f64>> = serde_json::from_value(v.clone()).expect("nested array of numbers");
+    DMatrix::from_fn(rows.len(), rows[0].len(), |r, c| rows[r][c])
+}
+
+#[test]
+fn trim_json_has_the_documented_fields_and_a_tiny_residual() {
+    let v = json(&[
+        "trim",
+        "--speed-mps",
+        "120",
+        "--altitude-m",
+        "3000",
+        "--json",
+    ]);
+    for key in [
+        "alpha_rad",
+        "theta_rad",
+        "throttle",
+        "elevator_deg",
+        "aileron_deg",
+        "rudder_deg",
+        "residual",
+    ] {
+        assert!(v[key].is_number(), "missing {key}: {v}");
+    }
+    assert!(v["residual"].as_f64().unwrap() < 1e-6);
+    let alpha = v["alpha_rad"].as_f64().unwrap();
+    assert!((0.09..0.13).contains(&alpha), "alpha {alpha}");
+    assert_eq!(v["alpha_rad"], v["theta_rad"], "level flight");
+    // A forward cg needs more nose-up elevator (more negative).
+    let forward = json(&["trim", "--xcg", "0.30", "--json"]);
+    assert!(forward["elevator_deg"].as_f64().unwrap() < v["elevator_deg"].as_f64().unwrap());
+}
+
+#[test]
+fn gains_json_closes_stable_loops_with_the_reported_riccati_solution() {
+    let v = json(&["gains", "--json"]);
+    for ch in ["lon", "lat"] {
+        let d = &v[ch];
+        let (a, b, q, r, k, p) = (
+            matrix(&d["A"]),
+            matrix(&d["B"]),
+            matrix(&d["Q"]),
+            matrix(&d["R"]),
+            matrix(&d["K"]),
+            matrix(&d["P"]),
+        );
+        assert_eq!(d["ts"].as_f64(), Some(0.02));
+        assert_eq!(
+            (a.nrows(), b.nrows(), k.ncols(), k.nrows()),
+            (a.ncols(), a.nrows(), a.nrows(), b.ncols())
+        );
+        // K is the optimal gain for (A, B, Q, R, P) and P solves the Riccati equation.
+        let s = &r + b.transpose() * &p * &b;
+        let k_check = s.clone().try_inverse().unwrap() * b.transpose() * &p * &a;
+        assert!(
+            (&k - k_check).norm() < 1e-9 * k.norm(),
+            "{ch}: K is not the LQR gain of P"
+        );
+        let res = a.transpose() * &p * &a - &p - a.transpose() * &p * &b * &k + &q;
+        assert!(
+            res.norm() < 1e-9 * p.norm(),
+            "{ch}: Riccati residual {}",
+            res.norm() / p.norm()
+        );
+        let radius = (&a - &b * &k)
+            .complex_eigenvalues()
+            .iter()
+            .map(|e| e.norm())
+            .fold(0.0, f64::max);
+        assert!(radius < 1.0, "{ch}: closed-loop spectral radius {radius}");
+    }
+}
+
+#[test]
+fn dock_json_reports_a_docking_from_the_paper_start() {
+    let v = json(&["dock", "--json", "--no-files"]);
+    assert_eq!(v["outcome"], "docked", "{v}");
+    assert_eq!(v["docked"], true);
+    let miss = v["miss_m"].as_f64().unwrap();
+    let closure = v["closure_mps"].as_f64().unwrap();
+    assert!(miss < 0.1, "{v}");
+    assert!((0.5..=2.6).contains(&closure), "{v}");
+    assert!(v["time_s"].as_f64().unwrap() > 1.0);
+}
+
+#[test]
+fn dock_writes_its_files_and_pbvs_is_selectable() {
+    let dir = std::env::temp_dir().join(format!("host-sim-cli-{}", std::process::id()));
+    let (ok, stdout, stderr) = host_sim(&[
+        "dock",
+        "--controller",
+        "pbvs",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.starts_with("Docked"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.join("run.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in [
+        "time_s",
+        "mode",
+        "image_x",
+        "depth_m",
+        "drogue_from_tip_right_m",
+        "cmd_throttle",
+        "v_des_fwd_mps",
+    ] {
+        assert!(
+            header.split(',').any(|c| c == col),
+            "missing column {col}: {header}"
+        );
+    }
+    assert!(csv.lines().count() > 100);
+    assert!(
+        std::fs::read_to_string(dir.join("dock.svg"))
+            .unwrap()
+            .starts_with("<svg")
+    );
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["outcome"], "docked");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_arguments_are_named_errors() {
+    let (ok, _, stderr) = host_sim(&["dock", "--start", "1,2", "--no-files"]);
+    assert!(!ok);
+    assert!(stderr.contains("--start takes three values"), "{stderr}");
+    let (ok, _, stderr) = host_sim(&["trim", "--speed-mps=-5"]);
+    assert!(!ok);
+    assert!(stderr.contains("invalid condition"), "{stderr}");
+    let (ok, _, stderr) = host_sim(&["dock", "--ibvs-gains", "0,2,0.3,3,1", "--no-files"]);
+    assert!(!ok);
+    assert!(stderr.contains("ibvs.k1_mps"), "{stderr}");
+}
