@@ -91,7 +91,7 @@ impl ActuatorLimits {
             let v = requested[i];
             out[i] = if !v.is_finite() {
                 sat.non_finite = true;
-                fallback[i].clamp(lo, hi)
+                fallback[i].max(lo).min(hi)
             } else if v > hi {
                 sat.side[i] = 1;
                 hi

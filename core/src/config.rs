@@ -250,7 +250,10 @@ impl ControllerConfig {
         let a = &self.actuators;
         let trim = trim_command();
         for ((lo, hi), t) in a.min.iter().zip(a.max).zip(trim) {
-            require("actuators (finite, min < max)", lo.is_finite() && hi.is_finite() && *lo < hi)?;
+            require(
+                "actuators (finite, min < max)",
+                lo.is_finite() && hi.is_finite() && *lo < hi,
+            )?;
             require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
         }
         check("integrator_limit_m", self.integrator_limit_m, true)

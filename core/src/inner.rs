@@ -194,7 +194,7 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
             if deepens {
                 frozen = true;
             } else {
-                self.q[i] = (self.q[i] + dq[i]).clamp(-limit_m, limit_m);
+                self.q[i] = (self.q[i] + dq[i]).max(-limit_m).min(limit_m);
             }
         }
         frozen

@@ -95,8 +95,9 @@ fn closing_speed(raw_mps: f32, lim: &VelocityLimits) -> f32 {
     raw_mps.max(lim.min_closing_mps).min(lim.max_closing_mps)
 }
 
+/// `v` limited to `[-limit, limit]` (`max`/`min` rather than `clamp`: no panic path).
 fn clamp_sym(v: f32, limit: f32) -> f32 {
-    v.clamp(-limit, limit)
+    v.max(-limit).min(limit)
 }
 
 /// Moves `from` toward `to` by at most `max_step` on each axis.
