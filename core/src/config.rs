@@ -219,6 +219,10 @@ impl ControllerConfig {
         )?;
         let m = &self.measurement;
         check("measurement.max_depth_m", m.max_depth_m, true)?;
+        require(
+            "measurement.max_depth_m (<= 1000 m)",
+            m.max_depth_m <= 1000.0,
+        )?;
         check("measurement.half_fov_x", m.half_fov_x, true)?;
         check("measurement.half_fov_y", m.half_fov_y, true)?;
         let n = &self.nav_envelope;
@@ -246,6 +250,14 @@ impl ControllerConfig {
             "modes.breakaway_throttle_cut",
             md.breakaway_throttle_cut,
             false,
+        )?;
+        require(
+            "modes.breakaway_down_mps (<= velocity_limits.max_vertical_mps)",
+            md.breakaway_down_mps <= l.max_vertical_mps,
+        )?;
+        require(
+            "modes.breakaway_aft_mps (<= velocity_limits.max_closing_mps)",
+            md.breakaway_aft_mps <= l.max_closing_mps,
         )?;
         let a = &self.actuators;
         let trim = trim_command();
@@ -300,6 +312,18 @@ mod tests {
         );
         let mut c = ControllerConfig::default();
         c.actuators.max[1] = 0.01;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::Inconsistent)
+        );
+        let mut c = ControllerConfig::default();
+        c.modes.breakaway_down_mps = c.velocity_limits.max_vertical_mps + 0.1;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::Inconsistent)
+        );
+        let mut c = ControllerConfig::default();
+        c.measurement.max_depth_m = f32::MAX;
         assert_eq!(
             c.validate().map_err(|e| e.problem),
             Err(ConfigProblem::Inconsistent)

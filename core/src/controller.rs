@@ -162,7 +162,7 @@ pub struct ControllerOutput {
     pub v_des: VelocityRe,
     /// The outer loop's latest target estimate (held while the measurement is invalid).
     pub target: TargetEstimate,
-    /// Step counter (wraps).
+    /// Steps run, this one included (saturates, like [`Counters::steps`]).
     pub step: u32,
 }
 
@@ -310,6 +310,7 @@ impl Controller {
         }
 
         // 4. Mode logic.
+        let before = self.modes.mode();
         let camera_fwd_mps = self.lon.camera_velocity(&x_lon)[1];
         let refused = self.modes.update(
             &ModeInputs {
@@ -324,6 +325,10 @@ impl Controller {
             ts,
         );
         let mode = self.modes.mode();
+        if mode == Mode::Standby && before != Mode::Standby {
+            // Reset: the next engage starts afresh, from any camera numbering.
+            self.sequence.reset();
+        }
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
         } else {
@@ -339,8 +344,10 @@ impl Controller {
         let trim = trim_command();
         let open_loop = mode == Mode::Breakaway && !nav_valid;
         let requested = if mode == Mode::Standby {
+            // Engage assumes trimmed formation flight: integrators and engine model at zero.
             self.lon.reset();
             self.lat.reset();
+            self.engine.reset();
             trim
         } else if open_loop {
             let mut t = trim;
@@ -361,7 +368,7 @@ impl Controller {
 
         // 6. Status and counters.
         let held = self.modes.holding_measurement();
-        let nav_held = !nav_valid && mode != Mode::Standby;
+        let nav_held = !nav_valid && mode != Mode::Standby && !open_loop;
         let saturated = sat.side.iter().any(|&s| s != 0);
         let mut bits = 0u16;
         for (i, s) in sat.side.iter().enumerate() {

@@ -130,7 +130,8 @@ pub struct ModeInputs {
     pub probe_contact: bool,
     /// Camera forward speed relative to the tanker from navigation, m/s.
     pub camera_fwd_mps: f32,
-    /// This step's outer-loop output (or the held one), used when entering the blind phase.
+    /// The desired velocity the inner loops were tracking (slewed), whose lateral and
+    /// vertical parts are held when entering the blind phase.
     pub v_des: VelocityRe,
 }
 

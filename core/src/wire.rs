@@ -56,24 +56,27 @@ pub fn encode<'a, T: Serialize>(msg: &T, buf: &'a mut [u8]) -> Result<&'a mut [u
     postcard::to_slice_cobs(msg, buf).map_err(|_| WireError::BufferTooSmall)
 }
 
-/// Decodes one COBS frame (with or without its terminating zero) in place.
-pub fn decode_uplink(frame: &mut [u8]) -> Result<Uplink, WireError> {
-    let m: Uplink = postcard::from_bytes_cobs(frame).map_err(|_| WireError::Malformed)?;
-    if m.version == PROTOCOL_VERSION {
+/// Decodes one COBS frame in place and checks its protocol version.
+fn decode<'de, T: Deserialize<'de>>(
+    frame: &'de mut [u8],
+    version: fn(&T) -> u8,
+) -> Result<T, WireError> {
+    let m: T = postcard::from_bytes_cobs(frame).map_err(|_| WireError::Malformed)?;
+    if version(&m) == PROTOCOL_VERSION {
         Ok(m)
     } else {
         Err(WireError::VersionMismatch)
     }
 }
 
+/// Decodes one COBS uplink frame (with or without its terminating zero) in place.
+pub fn decode_uplink(frame: &mut [u8]) -> Result<Uplink, WireError> {
+    decode(frame, |m: &Uplink| m.version)
+}
+
 /// Decodes one COBS downlink frame in place.
 pub fn decode_downlink(frame: &mut [u8]) -> Result<Downlink, WireError> {
-    let m: Downlink = postcard::from_bytes_cobs(frame).map_err(|_| WireError::Malformed)?;
-    if m.version == PROTOCOL_VERSION {
-        Ok(m)
-    } else {
-        Err(WireError::VersionMismatch)
-    }
+    decode(frame, |m: &Downlink| m.version)
 }
 
 #[cfg(test)]
