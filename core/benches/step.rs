@@ -1,2 +1,159 @@
-//! Criterion benchmark of one controller step on the host (placeholder, filled in below).
-fn main() {}
+//! Criterion benchmark of one [`Controller::step`] on the host.
+//!
+//! What is measured is the wall time of a single control step (validation, outer loop, mode
+//! logic, slew, both inner loops, saturation, status and counters), in three situations:
+//! - `step/ibvs_approach_valid_frame`: steady approach under the IBVS law. The controller is
+//!   engaged and warmed up first; every iteration then steps the same controller with the next
+//!   frame (advancing sequence number) and a slowly varying image point, depth and navigation
+//!   sample, so the step is neither constant-folded nor cached. There is no plant in the
+//!   loop, so the steady state reached has some actuators saturated and integrators frozen
+//!   (the same code path: saturation and anti-windup are evaluated every step);
+//! - `step/ibvs_approach_hold_invalid_frame`: the hold path, an approach step whose frame is
+//!   rejected (not tracked) so the last valid command is held. A hold may only last
+//!   `hold_limit_steps` steps, so every iteration steps a fresh clone of a controller that is
+//!   already a few steps into a hold; the clone is made outside the timed region;
+//! - `step/pbvs_approach_valid_frame`: as the first, under the PBVS law (3-D reconstruction
+//!   through the camera mount and the navigation attitude).
+//!
+//! Run with `cargo bench -p ibvs-core --bench step`. The numbers are host numbers (the bench
+//! profile: optimised, LTO), a relative measure only; the flight target is not measured here.
+
+use std::hint::black_box;
+
+use criterion::measurement::WallTime;
+use criterion::{BatchSize, BenchmarkGroup, Criterion, criterion_group, criterion_main};
+use ibvs_core::controller::StatusFlags;
+use ibvs_core::measurement::CameraMeasurement;
+use ibvs_core::nav::NavSample;
+use ibvs_core::{Controller, ControllerConfig, ControllerInput, Mode, ModeRequest, OuterLaw};
+
+/// Number of precomputed input variations cycled through (a power of two).
+const VARIATIONS: usize = 1024;
+
+/// Slowly varying healthy inputs around a mid-range approach (drogue 5.5..6.5 m ahead, a little
+/// right and above, small navigation perturbations). Sequence numbers are set when stepping.
+fn varying_inputs() -> Vec<ControllerInput> {
+    (0..VARIATIONS)
+        .map(|k| {
+            let phase = k as f32 * core::f32::consts::TAU / VARIATIONS as f32;
+            let (s, c) = (phase.sin(), phase.cos());
+            let mut nav = NavSample::default();
+            nav.lon.theta_rad = 0.002 * s;
+            nav.lon.v_mps = 0.05 * c;
+            nav.lon.alpha_rad = -0.001 * s;
+            nav.lon.q_radps = 0.002 * c;
+            nav.lat.phi_rad = 0.03 * s;
+            nav.lat.beta_rad = 0.002 * c;
+            nav.lat.r_radps = -0.01 * s;
+            ControllerInput {
+                measurement: CameraMeasurement {
+                    seq: 0,
+                    tracked: true,
+                    image_x: 0.2 + 0.05 * s,
+                    image_y: -0.1 + 0.03 * c,
+                    depth_m: 6.0 + 0.5 * s,
+                },
+                nav,
+                probe_contact: false,
+                request: ModeRequest::None,
+            }
+        })
+        .collect()
+}
+
+/// A controller engaged on `inputs[0]` and stepped once through every input; returns it with
+/// the last sequence number used.
+fn engaged(cfg: ControllerConfig, inputs: &[ControllerInput]) -> (Controller, u32) {
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let mut seq = 0_u32;
+    let engage = ControllerInput {
+        request: ModeRequest::Engage,
+        ..inputs[0]
+    };
+    ctl.step(&engage);
+    for input in inputs {
+        seq += 1;
+        let mut i = *input;
+        i.measurement.seq = seq;
+        ctl.step(&i);
+    }
+    assert_eq!(
+        ctl.mode(),
+        Mode::Approach,
+        "the warm-up must stay in approach"
+    );
+    (ctl, seq)
+}
+
+/// Steady approach steps with valid frames under `cfg`'s law.
+fn bench_valid(group: &mut BenchmarkGroup<'_, WallTime>, name: &str, cfg: ControllerConfig) {
+    let inputs = varying_inputs();
+    let (mut ctl, mut seq) = engaged(cfg, &inputs);
+    let mut k = 0_usize;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            seq = seq.wrapping_add(1);
+            k = (k + 1) & (VARIATIONS - 1);
+            let mut input = inputs[k];
+            input.measurement.seq = seq;
+            ctl.step(black_box(&input))
+        });
+    });
+    assert_eq!(ctl.mode(), Mode::Approach, "benchmarked outside approach");
+}
+
+/// Approach steps on the hold path (frame not tracked, last valid command held).
+fn bench_hold(group: &mut BenchmarkGroup<'_, WallTime>) {
+    let inputs = varying_inputs();
+    let (mut ctl, mut seq) = engaged(ControllerConfig::default(), &inputs);
+    let lost = |seq: u32, k: usize| {
+        let mut i = inputs[k];
+        i.measurement.seq = seq;
+        i.measurement.tracked = false;
+        i
+    };
+    for k in 0..5 {
+        seq += 1;
+        ctl.step(&lost(seq, k));
+    }
+    let snapshot = ctl;
+    let probe = snapshot.clone().step(&lost(seq + 1, 0));
+    assert!(
+        probe.mode == Mode::Approach && probe.status.contains(StatusFlags::MEASUREMENT_HELD),
+        "the benchmarked step must be a hold: {probe:?}"
+    );
+    let mut k = 0_usize;
+    group.bench_function("ibvs_approach_hold_invalid_frame", |b| {
+        b.iter_batched_ref(
+            || {
+                seq = seq.wrapping_add(1);
+                k = (k + 1) & (VARIATIONS - 1);
+                (snapshot.clone(), lost(seq, k))
+            },
+            |(ctl, input)| ctl.step(black_box(input)),
+            BatchSize::SmallInput,
+        );
+    });
+}
+
+fn benches(c: &mut Criterion) {
+    let mut group = c.benchmark_group("step");
+    bench_valid(
+        &mut group,
+        "ibvs_approach_valid_frame",
+        ControllerConfig::default(),
+    );
+    bench_hold(&mut group);
+    bench_valid(
+        &mut group,
+        "pbvs_approach_valid_frame",
+        ControllerConfig {
+            law: OuterLaw::Pbvs,
+            ..ControllerConfig::default()
+        },
+    );
+    group.finish();
+}
+
+criterion_group!(step, benches);
+criterion_main!(step);

@@ -1,0 +1,924 @@
+//! Behaviour tests of the docking controller through its public API only.
+//!
+//! Each test drives [`Controller::step`] through one behaviour of the response specification
+//! in the `controller` module doc and the transition table in the `mode` module doc: engaging,
+//! holding through invalid frames and navigation, dropped frames, the blind terminal phase,
+//! docking, breakaway, reset, anti-windup, configuration rejection and the wire messages.
+//!
+//! Several tests compare a controller with a clone of itself (a "twin") fed the input a
+//! healthy sensor would have produced: the specified response to a bad input is then an exact
+//! equality, not a tolerance.
+
+use ibvs_core::config::ConfigProblem;
+use ibvs_core::controller::StatusFlags;
+use ibvs_core::frames::VelocityRe;
+use ibvs_core::gains::TRIM;
+use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
+use ibvs_core::nav::{NavError, NavSample};
+use ibvs_core::wire::{
+    self, Downlink, MAX_FRAME_LEN, PROTOCOL_VERSION, Uplink, decode_downlink, decode_uplink,
+};
+use ibvs_core::{
+    BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
+    Mode, ModeRequest, OuterLaw,
+};
+
+/// The trim command `[elevator, throttle, aileron, rudder]`.
+fn trim() -> [f32; 4] {
+    [
+        TRIM.elevator_rad,
+        TRIM.throttle,
+        TRIM.aileron_rad,
+        TRIM.rudder_rad,
+    ]
+}
+
+/// Largest change of the desired velocity per step, each axis.
+fn max_slew_step(cfg: &ControllerConfig) -> f32 {
+    cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S
+}
+
+/// A small, valid navigation perturbation, so the inner loops have something to do.
+fn perturbed_nav() -> NavSample {
+    let mut n = NavSample::default();
+    n.lon.theta_rad = 0.002;
+    n.lon.v_mps = 0.05;
+    n.lon.alpha_rad = -0.001;
+    n.lon.q_radps = 0.002;
+    n.lat.phi_rad = 0.03;
+    n.lat.beta_rad = 0.002;
+    n.lat.r_radps = -0.01;
+    n
+}
+
+/// Image point and depth of a frame.
+#[derive(Debug, Clone, Copy)]
+struct Seen {
+    x: f32,
+    y: f32,
+    depth_m: f32,
+}
+
+/// The drogue a little right of and above the boresight at mid range.
+const MID: Seen = Seen {
+    x: 0.2,
+    y: -0.1,
+    depth_m: 6.0,
+};
+
+/// A controller with its camera sequence and navigation source.
+#[derive(Debug, Clone)]
+struct Rig {
+    ctl: Controller,
+    /// Sequence number of the last frame sent.
+    seq: u32,
+    nav: NavSample,
+}
+
+impl Rig {
+    fn new(cfg: ControllerConfig) -> Self {
+        Self {
+            ctl: Controller::new(cfg).expect("valid configuration"),
+            seq: 100,
+            nav: NavSample::default(),
+        }
+    }
+
+    /// A rig in approach, engaged on a valid frame of `seen`.
+    fn engaged(cfg: ControllerConfig, nav: NavSample, seen: Seen) -> Self {
+        let mut rig = Self {
+            nav,
+            ..Self::new(cfg)
+        };
+        let out = rig.step_with(seen, |i| i.request = ModeRequest::Engage);
+        assert_eq!(out.mode, Mode::Approach, "engage refused: {out:?}");
+        rig
+    }
+
+    /// The input of a healthy step: the next frame, showing `seen`, and the rig's navigation.
+    fn healthy_input(&mut self, seen: Seen) -> ControllerInput {
+        self.seq = self.seq.wrapping_add(1);
+        ControllerInput {
+            measurement: CameraMeasurement {
+                seq: self.seq,
+                tracked: true,
+                image_x: seen.x,
+                image_y: seen.y,
+                depth_m: seen.depth_m,
+            },
+            nav: self.nav,
+            probe_contact: false,
+            request: ModeRequest::None,
+        }
+    }
+
+    /// Steps a healthy input changed by `edit`.
+    fn step_with(
+        &mut self,
+        seen: Seen,
+        edit: impl FnOnce(&mut ControllerInput),
+    ) -> ControllerOutput {
+        let mut input = self.healthy_input(seen);
+        edit(&mut input);
+        self.ctl.step(&input)
+    }
+
+    /// Steps a healthy input.
+    fn step(&mut self, seen: Seen) -> ControllerOutput {
+        self.step_with(seen, |_| {})
+    }
+}
+
+fn has(out: &ControllerOutput, flag: u16) -> bool {
+    out.status.contains(flag)
+}
+
+fn v_array(v: &VelocityRe) -> [f32; 3] {
+    [v.x_right_mps, v.y_down_mps, v.z_fwd_mps]
+}
+
+/// Asserts that `now` is one slew step from `prev` toward `target` on every axis.
+fn assert_slews_toward(prev: &VelocityRe, now: &VelocityRe, target: &VelocityRe, step: f32) {
+    for ((p, n), t) in v_array(prev)
+        .into_iter()
+        .zip(v_array(now))
+        .zip(v_array(target))
+    {
+        let expected = p + (t - p).clamp(-step, step);
+        assert!(
+            (n - expected).abs() <= 1e-6,
+            "axis moved {p} -> {n}, expected {expected} (target {t}, step {step})"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Engage
+
+#[test]
+fn engage_is_refused_without_a_valid_frame_and_accepted_with_one() {
+    let mut rig = Rig::new(ControllerConfig::default());
+    let engage = |i: &mut ControllerInput| i.request = ModeRequest::Engage;
+
+    let out = rig.step_with(MID, |i| {
+        engage(i);
+        i.measurement.tracked = false;
+    });
+    assert_eq!(out.mode, Mode::Standby);
+    assert!(has(&out, StatusFlags::ENGAGE_REFUSED));
+    assert_eq!(out.measurement_error, Some(MeasurementError::NotTracked));
+    assert_eq!(rig.ctl.counters().engage_refused, 1);
+    assert_eq!(out.command.as_array(), trim(), "standby flies trim");
+
+    // A valid frame but no valid navigation is refused too.
+    let out = rig.step_with(MID, |i| {
+        engage(i);
+        i.nav.lat.p_radps = f32::NAN;
+    });
+    assert_eq!(out.mode, Mode::Standby);
+    assert!(has(&out, StatusFlags::ENGAGE_REFUSED));
+    assert_eq!(out.nav_error, Some(NavError::NonFinite));
+    assert_eq!(rig.ctl.counters().engage_refused, 2);
+
+    // Without a request nothing is refused.
+    let out = rig.step_with(MID, |i| i.measurement.tracked = false);
+    assert!(!has(&out, StatusFlags::ENGAGE_REFUSED));
+    assert_eq!(rig.ctl.counters().engage_refused, 2);
+
+    let out = rig.step_with(MID, engage);
+    assert_eq!(out.mode, Mode::Approach);
+    assert!(!has(&out, StatusFlags::ENGAGE_REFUSED));
+    assert_eq!(out.measurement_error, None);
+    assert_eq!(rig.ctl.counters().engage_refused, 2);
+}
+
+/// The IBVS law's output for `seen` (inside the velocity limits for the frames used here).
+fn ibvs_law(cfg: &ControllerConfig, seen: Seen) -> VelocityRe {
+    let (g, lim) = (&cfg.ibvs, &cfg.velocity_limits);
+    let close = g.k3_per_s * seen.depth_m - g.k4_mps * seen.x.abs() - g.k5_mps * seen.y.abs();
+    VelocityRe {
+        x_right_mps: g.k1_mps * seen.x,
+        y_down_mps: g.k2_mps * seen.y,
+        z_fwd_mps: close.clamp(lim.min_closing_mps, lim.max_closing_mps),
+    }
+}
+
+#[test]
+fn engaging_slews_the_desired_velocity_from_rest_to_the_law() {
+    let cfg = ControllerConfig::default();
+    let law = ibvs_law(&cfg, MID);
+    let mut rig = Rig::new(cfg);
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+    assert_eq!(out.mode, Mode::Approach);
+    assert_slews_toward(&VelocityRe::ZERO, &out.v_des, &law, max_slew_step(&cfg));
+    let mut prev = out.v_des;
+    for _ in 0..300 {
+        let out = rig.step(MID);
+        assert_slews_toward(&prev, &out.v_des, &law, max_slew_step(&cfg));
+        prev = out.v_des;
+    }
+    for (got, want) in v_array(&prev).into_iter().zip(v_array(&law)) {
+        assert!((got - want).abs() < 1e-5, "{prev:?} vs {law:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Invalid frames in approach: hold, then break away
+
+/// The frame following `last` (the last one sent) that provokes `kind`.
+fn bad_frame(
+    kind: MeasurementError,
+    last: &CameraMeasurement,
+    cfg: &ControllerConfig,
+) -> CameraMeasurement {
+    let next = CameraMeasurement {
+        seq: last.seq.wrapping_add(1),
+        ..*last
+    };
+    let lim = &cfg.measurement;
+    match kind {
+        MeasurementError::NotTracked => CameraMeasurement {
+            tracked: false,
+            ..next
+        },
+        MeasurementError::NonFinite => CameraMeasurement {
+            image_x: f32::NAN,
+            ..next
+        },
+        MeasurementError::DepthNotPositive => CameraMeasurement {
+            depth_m: -0.0,
+            ..next
+        },
+        MeasurementError::DepthTooLarge => CameraMeasurement {
+            depth_m: lim.max_depth_m * 1.01,
+            ..next
+        },
+        MeasurementError::OutsideFieldOfView => CameraMeasurement {
+            image_y: -lim.half_fov_y * 1.01,
+            ..next
+        },
+        MeasurementError::Repeated => *last,
+        MeasurementError::OutOfOrder => CameraMeasurement {
+            seq: last.seq.wrapping_sub(1),
+            ..*last
+        },
+    }
+}
+
+fn error_count(c: &ibvs_core::Counters, kind: MeasurementError) -> u32 {
+    match kind {
+        MeasurementError::NotTracked => c.not_tracked,
+        MeasurementError::NonFinite => c.non_finite,
+        MeasurementError::DepthNotPositive => c.depth_not_positive,
+        MeasurementError::DepthTooLarge => c.depth_too_large,
+        MeasurementError::OutsideFieldOfView => c.outside_fov,
+        MeasurementError::Repeated => c.repeated,
+        MeasurementError::OutOfOrder => c.out_of_order,
+    }
+}
+
+/// Engages, flies a few valid frames, then feeds frames provoking `kind`: the controller must
+/// fly exactly as a twin that kept receiving the last valid frame's content (same desired
+/// velocity, target and commands), flagged MEASUREMENT_HELD, for `hold_limit_steps` steps,
+/// and break away (MeasurementLost) on the next.
+fn invalid_frames_are_held_then_break_away(kind: MeasurementError) {
+    let cfg = ControllerConfig::default();
+    let mut held = Rig::engaged(cfg, perturbed_nav(), MID);
+    for _ in 0..3 {
+        held.step(MID);
+    }
+    let mut twin = held.clone();
+    let mut last = held.healthy_input(MID);
+    let mut prev = held.ctl.step(&last).v_des;
+    let law = ibvs_law(&cfg, MID);
+    twin.step(MID);
+    let limit = u32::from(cfg.modes.hold_limit_steps);
+    let valid_frames = held.ctl.counters().frames_valid;
+
+    for k in 1..=limit {
+        let good = twin.step(MID);
+        let input = ControllerInput {
+            measurement: bad_frame(kind, &last.measurement, &cfg),
+            ..last
+        };
+        if kind != MeasurementError::Repeated && kind != MeasurementError::OutOfOrder {
+            last = input;
+        }
+        let out = held.ctl.step(&input);
+        assert_eq!(out.mode, Mode::Approach, "step {k} of the hold");
+        assert_eq!(out.measurement_error, Some(kind));
+        assert!(has(&out, StatusFlags::MEASUREMENT_HELD), "step {k}");
+        assert!(!has(&good, StatusFlags::MEASUREMENT_HELD));
+        assert_eq!(out.v_des, good.v_des, "step {k}: not the held command");
+        assert_eq!(out.target, good.target, "step {k}");
+        assert_eq!(out.command, good.command, "step {k}");
+        // Still slewing toward the held command: a hold is not a freeze of the command.
+        assert_slews_toward(&prev, &out.v_des, &law, max_slew_step(&cfg));
+        prev = out.v_des;
+        let c = held.ctl.counters();
+        assert_eq!(error_count(c, kind), k);
+        assert_eq!(c.measurement_held_steps, k);
+        assert_eq!(c.frames_valid, valid_frames);
+    }
+    let out = held.ctl.step(&ControllerInput {
+        measurement: bad_frame(kind, &last.measurement, &cfg),
+        ..last
+    });
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::MeasurementLost));
+    assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
+    assert_eq!(out.measurement_error, Some(kind));
+    let c = held.ctl.counters();
+    assert_eq!(error_count(c, kind), limit + 1);
+    assert_eq!(c.measurement_held_steps, limit);
+}
+
+#[test]
+fn untracked_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::NotTracked);
+}
+
+#[test]
+fn non_finite_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::NonFinite);
+}
+
+#[test]
+fn non_positive_depth_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::DepthNotPositive);
+}
+
+#[test]
+fn too_deep_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::DepthTooLarge);
+}
+
+#[test]
+fn out_of_view_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::OutsideFieldOfView);
+}
+
+#[test]
+fn repeated_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::Repeated);
+}
+
+#[test]
+fn late_frames_hold_the_last_command_then_break_away() {
+    invalid_frames_are_held_then_break_away(MeasurementError::OutOfOrder);
+}
+
+#[test]
+fn one_valid_frame_restarts_the_hold_count() {
+    let cfg = ControllerConfig::default();
+    let limit = cfg.modes.hold_limit_steps;
+    let mut rig = Rig::engaged(cfg, NavSample::default(), MID);
+    for _ in 0..3 {
+        for _ in 0..limit {
+            let out = rig.step_with(MID, |i| i.measurement.tracked = false);
+            assert!(has(&out, StatusFlags::MEASUREMENT_HELD));
+        }
+        let out = rig.step(MID);
+        assert_eq!(out.mode, Mode::Approach);
+        assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
+    }
+    assert_eq!(
+        rig.ctl.counters().measurement_held_steps,
+        3 * u32::from(limit)
+    );
+}
+
+#[test]
+fn a_sequence_gap_counts_the_dropped_frames_and_uses_the_frame() {
+    let cfg = ControllerConfig::default();
+    for start in [100_u32, u32::MAX - 1] {
+        let mut rig = Rig {
+            seq: start.wrapping_sub(1),
+            ..Rig::new(cfg)
+        };
+        rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+        assert_eq!(rig.ctl.mode(), Mode::Approach);
+        let moved = Seen {
+            x: -0.3,
+            y: 0.25,
+            depth_m: 4.0,
+        };
+        let n = 4;
+        rig.seq = rig.seq.wrapping_add(n);
+        let out = rig.step(moved);
+        assert_eq!(out.measurement_error, None, "start {start}");
+        assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
+        let c = rig.ctl.counters();
+        assert_eq!(c.frames_dropped, n, "start {start}");
+        assert_eq!(c.frames_valid, 2);
+        // The gap frame was used: the target is the new one.
+        assert!((out.target.right_m - moved.x * moved.depth_m).abs() < 1e-6);
+        assert!((out.target.depth_m - moved.depth_m).abs() < 1e-6);
+        // The next consecutive frame drops nothing more.
+        rig.step(moved);
+        assert_eq!(rig.ctl.counters().frames_dropped, n);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Invalid navigation
+
+#[test]
+fn invalid_navigation_flies_the_held_sample_with_frozen_integrators_then_breaks_away() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    for _ in 0..20 {
+        rig.step(MID);
+    }
+    let q0 = rig.ctl.integrators_m();
+    assert!(q0.iter().all(|q| *q != 0.0), "integrators moved: {q0:?}");
+
+    // First held step: the command is the one the held sample would give.
+    let mut twin = rig.clone();
+    let good = twin.step(MID);
+    let nan = |i: &mut ControllerInput| i.nav.lon.q_radps = f32::NAN;
+    let out = rig.step_with(MID, nan);
+    assert_eq!(out.nav_error, Some(NavError::NonFinite));
+    assert!(has(&out, StatusFlags::NAV_HELD));
+    assert!(!has(&out, StatusFlags::OPEN_LOOP));
+    assert_eq!(out.command, good.command, "inner loops on the held sample");
+    assert_eq!(rig.ctl.integrators_m(), q0, "integrators frozen");
+    assert_ne!(twin.ctl.integrators_m(), q0, "the twin integrates");
+    let lateral = [out.command.aileron_rad, out.command.rudder_rad];
+
+    let limit = u32::from(cfg.modes.hold_limit_steps);
+    for k in 2..=limit {
+        let out = rig.step_with(MID, nan);
+        assert_eq!(out.mode, Mode::Approach, "step {k}");
+        assert!(has(&out, StatusFlags::NAV_HELD));
+        assert_eq!(rig.ctl.integrators_m(), q0, "step {k}");
+        // Held lateral state and frozen integrator: the lateral command cannot move.
+        assert_eq!([out.command.aileron_rad, out.command.rudder_rad], lateral);
+        let c = rig.ctl.counters();
+        assert_eq!((c.nav_non_finite, c.nav_held_steps), (k, k));
+    }
+
+    let open_loop = {
+        let mut t = trim();
+        t[1] -= cfg.modes.breakaway_throttle_cut;
+        t
+    };
+    for _ in 0..5 {
+        let out = rig.step_with(MID, nan);
+        assert_eq!(out.mode, Mode::Breakaway);
+        assert_eq!(out.breakaway_reason, Some(BreakawayReason::NavLost));
+        assert!(has(&out, StatusFlags::OPEN_LOOP));
+        assert_eq!(out.command.as_array(), open_loop);
+        assert_eq!(rig.ctl.integrators_m(), q0);
+    }
+
+    // Navigation back: the breakaway is flown closed loop again.
+    let out = rig.step(MID);
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert!(!has(&out, StatusFlags::OPEN_LOOP));
+    assert!(!has(&out, StatusFlags::NAV_HELD));
+    assert_ne!(out.command.as_array(), open_loop);
+}
+
+#[test]
+fn navigation_outside_the_envelope_is_held_and_counted() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    rig.step(MID);
+    let q0 = rig.ctl.integrators_m();
+    let out = rig.step_with(MID, |i| {
+        i.nav.lat.phi_rad = cfg.nav_envelope.max_bank_rad * 1.1;
+    });
+    assert_eq!(out.nav_error, Some(NavError::OutsideEnvelope));
+    assert!(has(&out, StatusFlags::NAV_HELD));
+    assert_eq!(rig.ctl.integrators_m(), q0);
+    let c = rig.ctl.counters();
+    assert_eq!((c.nav_outside_envelope, c.nav_non_finite), (1, 0));
+}
+
+#[test]
+fn an_aborted_approach_without_navigation_flies_open_loop_at_once() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    rig.step(MID);
+    let out = rig.step_with(MID, |i| {
+        i.request = ModeRequest::Abort;
+        i.nav.lon.v_mps = f32::INFINITY;
+    });
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::Abort));
+    assert!(has(&out, StatusFlags::OPEN_LOOP));
+    let mut want = trim();
+    want[1] -= cfg.modes.breakaway_throttle_cut;
+    assert_eq!(out.command.as_array(), want);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Terminal phase, docking, breakaway
+
+/// Closes from 3 m to just outside the terminal depth, centred.
+fn approach_to_terminal_depth(cfg: ControllerConfig, nav: NavSample) -> (Rig, ControllerOutput) {
+    let start = Seen {
+        x: 0.02,
+        y: 0.01,
+        depth_m: 3.0,
+    };
+    let mut rig = Rig::engaged(cfg, nav, start);
+    let mut out = rig.step(start);
+    for depth in [2.5, 2.0, 1.5, 1.2, cfg.modes.terminal_depth_m + 0.01] {
+        out = rig.step(Seen {
+            depth_m: depth,
+            ..start
+        });
+        assert_eq!(out.mode, Mode::Approach, "depth {depth}");
+    }
+    (rig, out)
+}
+
+/// A frame at the terminal depth, offset by (about) `offset_m` to the right and a little down.
+fn at_terminal_depth(cfg: &ControllerConfig, offset_m: f32) -> Seen {
+    let z = cfg.modes.terminal_depth_m;
+    Seen {
+        x: offset_m / z,
+        y: 0.01,
+        depth_m: z,
+    }
+}
+
+#[test]
+fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
+    let cfg = ControllerConfig::default();
+    let (mut rig, last) = approach_to_terminal_depth(cfg, NavSample::default());
+    let out = rig.step(at_terminal_depth(&cfg, 0.1));
+    assert_eq!(out.mode, Mode::Terminal);
+    assert_eq!(out.breakaway_reason, None);
+
+    // Blind: whatever the camera says (valid or not, for longer than the hold limit), the
+    // lateral and vertical commands stay those of the last visual step and the closing speed
+    // slews to the minimum.
+    let mut prev = out.v_des;
+    let target = VelocityRe {
+        z_fwd_mps: cfg.velocity_limits.min_closing_mps,
+        ..last.v_des
+    };
+    for k in 0..2 * cfg.modes.hold_limit_steps {
+        let seen = Seen {
+            x: 0.5,
+            y: -0.4,
+            depth_m: 5.0,
+        };
+        let out = rig.step_with(seen, |i| i.measurement.tracked = k % 2 == 0);
+        assert_eq!(out.mode, Mode::Terminal, "step {k}");
+        assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
+        assert_eq!(out.v_des.x_right_mps, last.v_des.x_right_mps);
+        assert_eq!(out.v_des.y_down_mps, last.v_des.y_down_mps);
+        assert_slews_toward(&prev, &out.v_des, &target, max_slew_step(&cfg));
+        prev = out.v_des;
+    }
+}
+
+#[test]
+fn a_large_offset_at_the_terminal_depth_predicts_a_miss() {
+    let cfg = ControllerConfig::default();
+    let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
+    let out = rig.step(at_terminal_depth(
+        &cfg,
+        2.0 * cfg.modes.terminal_max_offset_m,
+    ));
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::PredictedMiss));
+}
+
+#[test]
+fn terminal_dead_reckons_the_navigation_speed_past_the_drogue_plane() {
+    let cfg = ControllerConfig::default();
+    let mut nav = NavSample::default();
+    nav.lon.v_mps = 1.0; // closing on the tanker at 1 m/s: the camera's forward speed
+    let (mut rig, _) = approach_to_terminal_depth(cfg, nav);
+    assert_eq!(rig.step(at_terminal_depth(&cfg, 0.0)).mode, Mode::Terminal);
+    // (terminal depth + overshoot) / 1 m/s, in steps.
+    let expected = (cfg.modes.terminal_depth_m + cfg.modes.terminal_overshoot_m)
+        / (nav.lon.v_mps * Controller::PERIOD_S);
+    let mut steps = 0;
+    let out = loop {
+        let out = rig.step(MID);
+        steps += 1;
+        if out.mode != Mode::Terminal || steps >= 1000 {
+            break out;
+        }
+    };
+    assert_eq!(
+        out.breakaway_reason,
+        Some(BreakawayReason::PassedDroguePlane)
+    );
+    assert!(
+        (steps as f32 - expected).abs() <= 2.0,
+        "{steps} steps, expected about {expected}"
+    );
+}
+
+#[test]
+fn contact_docks_and_losing_it_breaks_away_aft_and_down() {
+    let cfg = ControllerConfig::default();
+    let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
+    assert_eq!(rig.step(at_terminal_depth(&cfg, 0.1)).mode, Mode::Terminal);
+    let contact = |i: &mut ControllerInput| i.probe_contact = true;
+    let mut prev = rig.step(MID).v_des;
+    for k in 0..300 {
+        let out = rig.step_with(MID, contact);
+        assert_eq!(out.mode, Mode::Docked, "step {k}");
+        assert_slews_toward(&prev, &out.v_des, &VelocityRe::ZERO, max_slew_step(&cfg));
+        prev = out.v_des;
+    }
+    assert_eq!(prev, VelocityRe::ZERO, "docked: hold station");
+
+    let away = VelocityRe {
+        x_right_mps: 0.0,
+        y_down_mps: cfg.modes.breakaway_down_mps,
+        z_fwd_mps: -cfg.modes.breakaway_aft_mps,
+    };
+    let out = rig.step(MID);
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::ContactLost));
+    assert_slews_toward(&prev, &out.v_des, &away, max_slew_step(&cfg));
+    prev = out.v_des;
+    for _ in 0..300 {
+        // Latched: contact, engage and valid frames change nothing.
+        let out = rig.step_with(MID, |i| {
+            i.probe_contact = true;
+            i.request = ModeRequest::Engage;
+        });
+        assert_eq!(out.breakaway_reason, Some(BreakawayReason::ContactLost));
+        assert_slews_toward(&prev, &out.v_des, &away, max_slew_step(&cfg));
+        prev = out.v_des;
+    }
+    for (got, want) in v_array(&prev).into_iter().zip(v_array(&away)) {
+        assert!((got - want).abs() < 1e-5, "{prev:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Operator requests
+
+#[test]
+fn reset_returns_to_standby_with_the_trim_command_exactly() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    for _ in 0..30 {
+        rig.step(MID);
+    }
+    assert_ne!(rig.step(MID).command.as_array(), trim());
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Reset);
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(out.breakaway_reason, None);
+    assert_eq!(out.command.as_array(), trim());
+    assert_eq!(out.v_des, VelocityRe::ZERO);
+    assert_eq!(rig.ctl.integrators_m(), [0.0; 3]);
+    // Standby stays at trim whatever the navigation says.
+    let out = rig.step(MID);
+    assert_eq!(out.command.as_array(), trim());
+
+    // And from a breakaway.
+    rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+    for _ in 0..10 {
+        rig.step(MID);
+    }
+    rig.step_with(MID, |i| i.request = ModeRequest::Abort);
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Reset);
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(out.command.as_array(), trim());
+}
+
+#[test]
+fn abort_breaks_away_from_approach_and_only_reset_leaves_it() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    rig.step(MID);
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Abort);
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::Abort));
+    assert!(!has(&out, StatusFlags::OPEN_LOOP), "navigation is valid");
+    for req in [ModeRequest::Engage, ModeRequest::None, ModeRequest::Abort] {
+        let out = rig.step_with(MID, |i| i.request = req);
+        assert_eq!(
+            out.breakaway_reason,
+            Some(BreakawayReason::Abort),
+            "{req:?}"
+        );
+    }
+    assert_eq!(
+        rig.step_with(MID, |i| i.request = ModeRequest::Reset).mode,
+        Mode::Standby
+    );
+    assert_eq!(
+        rig.step_with(MID, |i| i.request = ModeRequest::Engage).mode,
+        Mode::Approach
+    );
+}
+
+#[test]
+fn abort_in_standby_is_ignored() {
+    let mut rig = Rig::new(ControllerConfig::default());
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Abort);
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(out.breakaway_reason, None);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Anti-windup
+
+/// Flies `steps` steps of a large, persistent demand (drogue far and off the boresight) with
+/// the navigation stuck at trim, so that the aircraft never responds and the integrators
+/// would wind up. Returns the controller and the union of the status bits seen.
+fn wind_up(cfg: ControllerConfig, steps: usize) -> (Rig, u16) {
+    let far_off = Seen {
+        x: 0.5,
+        y: 0.4,
+        depth_m: 10.0,
+    };
+    let mut rig = Rig::engaged(cfg, NavSample::default(), far_off);
+    let mut seen_bits = 0;
+    for _ in 0..steps {
+        seen_bits |= rig.step(far_off).status.0;
+    }
+    assert_eq!(rig.ctl.mode(), Mode::Approach);
+    (rig, seen_bits)
+}
+
+fn wide_limits() -> ControllerConfig {
+    let mut cfg = ControllerConfig::default();
+    cfg.actuators.min = [-1e3; 4];
+    cfg.actuators.max = [1e3; 4];
+    cfg
+}
+
+#[test]
+fn saturation_freezes_the_integrators_and_limits_wind_up() {
+    const STEPS: usize = 400;
+    let (half, _) = wind_up(ControllerConfig::default(), STEPS / 2);
+    let (constrained, bits) = wind_up(ControllerConfig::default(), STEPS);
+    let (free, free_bits) = wind_up(wide_limits(), STEPS);
+
+    let c = constrained.ctl.counters();
+    assert!(c.saturated_steps > 0);
+    assert!(
+        c.integrator_frozen_steps > half.ctl.counters().integrator_frozen_steps,
+        "still freezing in the second half"
+    );
+    let saturated = StatusFlags::SATURATED_ELEVATOR
+        | StatusFlags::SATURATED_THROTTLE
+        | StatusFlags::SATURATED_AILERON
+        | StatusFlags::SATURATED_RUDDER;
+    assert_ne!(bits & saturated, 0, "no SATURATED_* bit: {bits:#x}");
+    assert_ne!(bits & StatusFlags::LON_INTEGRATOR_FROZEN, 0, "{bits:#x}");
+    assert_ne!(bits & StatusFlags::LAT_INTEGRATOR_FROZEN, 0, "{bits:#x}");
+
+    let f = free.ctl.counters();
+    assert_eq!((f.saturated_steps, f.integrator_frozen_steps), (0, 0));
+    assert_eq!(free_bits & saturated, 0);
+
+    let q = constrained.ctl.integrators_m();
+    let q_free = free.ctl.integrators_m();
+    assert_eq!(
+        half.ctl.integrators_m(),
+        q,
+        "saturated throughout the second half: no further wind-up"
+    );
+    let lon = |q: [f32; 3]| q[0].hypot(q[1]);
+    assert!(
+        lon(q) < 0.5 * lon(q_free),
+        "lon wound up: {q:?} vs {q_free:?}"
+    );
+    assert!(
+        q[2].abs() < 0.5 * q_free[2].abs(),
+        "lat wound up: {q:?} vs {q_free:?}"
+    );
+    assert!(
+        q_free
+            .iter()
+            .all(|v| v.abs() < ControllerConfig::default().integrator_limit_m),
+        "the comparison run must not be clamped instead: {q_free:?}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Configuration
+
+/// What `Controller::new` says about the default configuration changed by `spoil`.
+fn rejection(spoil: impl FnOnce(&mut ControllerConfig)) -> Option<ConfigError> {
+    let mut cfg = ControllerConfig::default();
+    spoil(&mut cfg);
+    Controller::new(cfg).err()
+}
+
+#[test]
+fn new_rejects_an_invalid_config_naming_the_field() {
+    let named = |field, problem| Some(ConfigError { field, problem });
+    assert_eq!(
+        rejection(|c| c.ibvs.k3_per_s = 0.0),
+        named("ibvs.k3_per_s", ConfigProblem::NotPositive)
+    );
+    assert_eq!(
+        rejection(|c| c.integrator_limit_m = f32::NAN),
+        named("integrator_limit_m", ConfigProblem::NotFinite)
+    );
+    assert_eq!(
+        rejection(|c| c.velocity_limits.max_accel_mps2 = -0.5),
+        named("velocity_limits.max_accel_mps2", ConfigProblem::NotPositive)
+    );
+    assert_eq!(
+        rejection(|c| c.modes.breakaway_aft_mps = -2.0),
+        named("modes.breakaway_aft_mps", ConfigProblem::Negative)
+    );
+    assert_eq!(rejection(|_| {}), None);
+    assert_eq!(rejection(|c| c.law = OuterLaw::Pbvs), None);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Wire
+
+#[test]
+fn uplink_of_a_real_input_round_trips_and_steps_identically() {
+    let mut rig = Rig::engaged(ControllerConfig::default(), perturbed_nav(), MID);
+    let mut twin = rig.clone();
+    let mut input = rig.healthy_input(MID);
+    input.request = ModeRequest::Abort;
+    input.nav.lat.y_right_m = -1e-40; // subnormal, must survive bit for bit
+    let sent = Uplink {
+        version: PROTOCOL_VERSION,
+        input,
+    };
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let frame = wire::encode(&sent, &mut buf).expect("fits");
+    let received = decode_uplink(frame).expect("decodes");
+    assert_eq!(received, sent);
+    assert_eq!(rig.ctl.step(&input), twin.ctl.step(&received.input));
+}
+
+#[test]
+fn downlink_of_a_real_step_fits_a_frame_and_round_trips() {
+    let cfg = ControllerConfig::default();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    for _ in 0..100 {
+        rig.step(MID);
+    }
+    // A busy step: breakaway with a reason, both errors, many status bits and counters.
+    for _ in 0..=cfg.modes.hold_limit_steps {
+        rig.step_with(MID, |i| {
+            i.measurement.depth_m = f32::NAN;
+            i.nav.lon.q_radps = 9.0;
+        });
+    }
+    let output = rig.step_with(MID, |i| {
+        i.measurement.tracked = false;
+        i.nav.lon.q_radps = f32::NAN;
+    });
+    assert!(output.breakaway_reason.is_some() && output.measurement_error.is_some());
+    assert!(output.nav_error.is_some());
+    let sent = Downlink {
+        version: PROTOCOL_VERSION,
+        output,
+        counters: *rig.ctl.counters(),
+    };
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let frame = wire::encode(&sent, &mut buf).expect("fits MAX_FRAME_LEN");
+    assert!(frame.len() <= MAX_FRAME_LEN);
+    assert_eq!(decode_downlink(frame).expect("decodes"), sent);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reset returns the controller to a fresh engage (found as discrepancies, now fixed)
+
+/// `docs/conventions.md`, "Modes": in standby the integrators and the engine model are at
+/// zero, so after a reset the next engage flies exactly like the first one.
+#[test]
+fn a_re_engage_after_reset_flies_like_the_first_engage() {
+    let cfg = ControllerConfig::default();
+    let (mut used, _) = wind_up(cfg, 300);
+    let out = used.step_with(MID, |i| i.request = ModeRequest::Reset);
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(used.ctl.integrators_m(), [0.0; 3]);
+    let mut fresh = Rig::new(cfg);
+    fresh.seq = used.seq;
+    let engage = |i: &mut ControllerInput| i.request = ModeRequest::Engage;
+    let again = used.step_with(MID, engage);
+    let first = fresh.step_with(MID, engage);
+    assert_eq!((again.mode, first.mode), (Mode::Approach, Mode::Approach));
+    assert_eq!(again.v_des, first.v_des);
+    assert_eq!(
+        again.command, first.command,
+        "the engine model was not reset in standby"
+    );
+}
+
+/// A reset forgets the frame sequence: a camera (tracker) that restarted its numbering can
+/// engage at once instead of being rejected as `OutOfOrder`.
+#[test]
+fn reset_forgets_the_frame_sequence_so_a_restarted_camera_can_engage() {
+    let mut rig = Rig::engaged(ControllerConfig::default(), NavSample::default(), MID);
+    rig.step(MID);
+    rig.step_with(MID, |i| i.request = ModeRequest::Reset);
+    assert_eq!(rig.ctl.mode(), Mode::Standby);
+    rig.seq = u32::MAX; // the camera restarted: the next frame is number 0
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+    assert_eq!(out.measurement_error, None);
+    assert_eq!(out.mode, Mode::Approach);
+}

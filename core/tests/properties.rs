@@ -1,0 +1,393 @@
+//! Property tests of [`Controller::step`] on arbitrary input sequences.
+//!
+//! Every `f32` field of the input is drawn from a mix of ordinary values, huge values, ±0,
+//! subnormals, NaN and ±inf; sequence numbers, discretes and operator requests are arbitrary.
+//! For every step of every sequence, under the IBVS (default) and the PBVS configuration:
+//! - `step` does not panic and every command is finite and inside `cfg.actuators`;
+//! - the desired velocity is finite and inside the velocity limits (breakaway included);
+//! - the integrators are finite and inside `integrator_limit_m`;
+//! - the counters are consistent: one step counted per call, every frame counted exactly once
+//!   (valid or under one error), and the output's error matches the counter that moved.
+//!
+//! And with a plausible frame, plausible navigation and `Engage`, a fresh controller is in
+//! approach after its first step.
+//!
+//! Inputs come in runs (one input repeated for up to 40 steps, its sequence number advancing)
+//! so that the hold limits, the terminal phase and docking are reached, not only standby.
+//! 256 cases per property by default (under a second in a debug build); set `PROPTEST_CASES`
+//! for a longer run.
+
+use ibvs_core::controller::StatusFlags;
+use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
+use ibvs_core::nav::{LatNav, LonNav, NavSample};
+use ibvs_core::{
+    Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw,
+};
+use proptest::prelude::*;
+use proptest::test_runner::Config;
+
+/// Longest generated input sequence.
+const MAX_STEPS: usize = 300;
+
+fn config() -> Config {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(256);
+    Config::with_cases(cases)
+}
+
+fn ibvs_config() -> ControllerConfig {
+    ControllerConfig::default()
+}
+
+fn pbvs_config() -> ControllerConfig {
+    ControllerConfig {
+        law: OuterLaw::Pbvs,
+        ..ControllerConfig::default()
+    }
+}
+
+/// Positive and negative subnormals.
+fn subnormal() -> impl Strategy<Value = f32> {
+    (1u32..0x0080_0000, any::<bool>()).prop_map(|(bits, negative)| {
+        let v = f32::from_bits(bits);
+        if negative { -v } else { v }
+    })
+}
+
+/// Values that break naive arithmetic: non-finite, signed zeros, subnormals, huge.
+fn special() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        Just(f32::NAN),
+        Just(-f32::NAN),
+        Just(f32::INFINITY),
+        Just(f32::NEG_INFINITY),
+        Just(0.0_f32),
+        Just(-0.0_f32),
+        subnormal(),
+        Just(f32::MAX),
+        Just(f32::MIN),
+        prop_oneof![1e6_f32..1e38, -1e38_f32..-1e6],
+        any::<f32>(),
+    ]
+}
+
+/// A field whose ordinary values lie in `ordinary`, mixed with [`special`] ones.
+fn field(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    prop_oneof![3 => lo..=hi, 1 => special()]
+}
+
+/// Navigation inside the default envelope (small perturbations).
+fn plausible_nav() -> impl Strategy<Value = NavSample> {
+    (
+        (
+            -100.0_f32..100.0,
+            -50.0_f32..50.0,
+            -0.3_f32..0.3,
+            -25.0_f32..25.0,
+            -0.3_f32..0.3,
+            -1.4_f32..1.4,
+        ),
+        (
+            -50.0_f32..50.0,
+            -0.3_f32..0.3,
+            -0.7_f32..0.7,
+            -0.15_f32..0.15,
+            -1.4_f32..1.4,
+            -1.4_f32..1.4,
+        ),
+    )
+        .prop_map(|(lon, lat)| NavSample {
+            lon: LonNav {
+                x_fwd_m: lon.0,
+                h_up_m: lon.1,
+                theta_rad: lon.2,
+                v_mps: lon.3,
+                alpha_rad: lon.4,
+                q_radps: lon.5,
+            },
+            lat: LatNav {
+                y_right_m: lat.0,
+                psi_rad: lat.1,
+                phi_rad: lat.2,
+                beta_rad: lat.3,
+                p_radps: lat.4,
+                r_radps: lat.5,
+            },
+        })
+}
+
+/// Navigation with every field drawn from [`field`]: often invalid.
+fn wild_nav() -> impl Strategy<Value = NavSample> {
+    let f = || field(-2.0, 2.0);
+    (
+        (f(), f(), f(), f(), f(), f()),
+        (f(), f(), f(), f(), f(), f()),
+    )
+        .prop_map(|(lon, lat)| NavSample {
+            lon: LonNav {
+                x_fwd_m: lon.0,
+                h_up_m: lon.1,
+                theta_rad: lon.2,
+                v_mps: lon.3,
+                alpha_rad: lon.4,
+                q_radps: lon.5,
+            },
+            lat: LatNav {
+                y_right_m: lat.0,
+                psi_rad: lat.1,
+                phi_rad: lat.2,
+                beta_rad: lat.3,
+                p_radps: lat.4,
+                r_radps: lat.5,
+            },
+        })
+}
+
+/// Frame content `(tracked, image_x, image_y, depth_m)`: a plausible tracked frame (depth
+/// reaching into the terminal range) or one with every field arbitrary.
+fn frame_content() -> impl Strategy<Value = (bool, f32, f32, f32)> {
+    prop_oneof![
+        2 => (Just(true), -0.6_f32..0.6, -0.45_f32..0.45, 0.2_f32..12.0),
+        1 => (
+            prop::bool::weighted(0.8),
+            field(-0.8, 0.8),
+            field(-0.6, 0.6),
+            field(-5.0, 60.0),
+        ),
+    ]
+}
+
+/// Sequence-number step from the previous frame: mostly the next frame, also repeats, gaps
+/// and arbitrary jumps (half of which are "late" frames).
+fn seq_step() -> impl Strategy<Value = u32> {
+    prop_oneof![8 => Just(1_u32), 2 => Just(0_u32), 1 => 2_u32..6, 1 => any::<u32>()]
+}
+
+fn request() -> impl Strategy<Value = ModeRequest> {
+    prop_oneof![
+        12 => Just(ModeRequest::None),
+        3 => Just(ModeRequest::Engage),
+        1 => Just(ModeRequest::Abort),
+        1 => Just(ModeRequest::Reset),
+    ]
+}
+
+/// One step's input with the sequence number still relative (a step from the last one),
+/// and how many consecutive steps it is repeated for (so that long runs of bad frames or bad
+/// navigation, which the hold limits are about, are common).
+fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
+    (
+        seq_step(),
+        frame_content(),
+        prop_oneof![3 => plausible_nav(), 2 => wild_nav()],
+        prop::bool::weighted(0.3),
+        request(),
+        prop_oneof![6 => Just(1_usize), 1 => 2_usize..40],
+    )
+        .prop_map(
+            |(step, (tracked, x, y, depth), nav, probe_contact, request, repeat)| {
+                let input = ControllerInput {
+                    measurement: CameraMeasurement {
+                        seq: 0,
+                        tracked,
+                        image_x: x,
+                        image_y: y,
+                        depth_m: depth,
+                    },
+                    nav,
+                    probe_contact,
+                    request,
+                };
+                (step, input, repeat)
+            },
+        )
+}
+
+/// An arbitrary input sequence of at most [`MAX_STEPS`] steps, with absolute, wrapping
+/// sequence numbers (a repeated input advances its sequence number by its step each time).
+fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
+    (
+        any::<u32>(),
+        prop::collection::vec(relative_input(), 1..=MAX_STEPS / 2),
+    )
+        .prop_map(|(start, runs)| {
+            let mut seq = start;
+            runs.into_iter()
+                .flat_map(|(step, input, repeat)| core::iter::repeat_n((step, input), repeat))
+                .take(MAX_STEPS)
+                .map(|(step, mut input)| {
+                    seq = seq.wrapping_add(step);
+                    input.measurement.seq = seq;
+                    input
+                })
+                .collect()
+        })
+}
+
+/// Per-error measurement counters, in [`MeasurementError`] declaration order.
+fn error_counters(c: &Counters) -> [u32; 7] {
+    [
+        c.not_tracked,
+        c.non_finite,
+        c.depth_not_positive,
+        c.depth_too_large,
+        c.outside_fov,
+        c.repeated,
+        c.out_of_order,
+    ]
+}
+
+fn error_index(e: MeasurementError) -> usize {
+    match e {
+        MeasurementError::NotTracked => 0,
+        MeasurementError::NonFinite => 1,
+        MeasurementError::DepthNotPositive => 2,
+        MeasurementError::DepthTooLarge => 3,
+        MeasurementError::OutsideFieldOfView => 4,
+        MeasurementError::Repeated => 5,
+        MeasurementError::OutOfOrder => 6,
+    }
+}
+
+/// Runs `inputs` through a controller built from `cfg`, checking every invariant after every
+/// step.
+fn check_invariants(
+    cfg: ControllerConfig,
+    inputs: &[ControllerInput],
+) -> Result<(), TestCaseError> {
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let (act, vl, md) = (cfg.actuators, cfg.velocity_limits, cfg.modes);
+    let mut before = *ctl.counters();
+    for (k, input) in inputs.iter().enumerate() {
+        let out = ctl.step(input);
+        let after = *ctl.counters();
+        let at = format!("step {k}, input {input:?}, output {out:?}");
+
+        for (i, v) in out.command.as_array().into_iter().enumerate() {
+            prop_assert!(v.is_finite(), "command {i} not finite: {at}");
+            prop_assert!(
+                act.min[i] <= v && v <= act.max[i],
+                "command {i} = {v} outside [{}, {}]: {at}",
+                act.min[i],
+                act.max[i]
+            );
+        }
+        prop_assert!(
+            !out.status.contains(StatusFlags::NON_FINITE_COMMAND),
+            "a computed command was not finite: {at}"
+        );
+
+        let v = out.v_des;
+        prop_assert!(v.is_finite(), "v_des not finite: {at}");
+        prop_assert!(v.x_right_mps.abs() <= vl.max_lateral_mps, "v_des.x: {at}");
+        prop_assert!(v.y_down_mps.abs() <= vl.max_vertical_mps, "v_des.y: {at}");
+        prop_assert!(
+            -md.breakaway_aft_mps <= v.z_fwd_mps && v.z_fwd_mps <= vl.max_closing_mps,
+            "v_des.z: {at}"
+        );
+
+        for q in ctl.integrators_m() {
+            prop_assert!(
+                q.is_finite() && q.abs() <= cfg.integrator_limit_m,
+                "integrator {q}: {at}"
+            );
+        }
+
+        prop_assert_eq!(out.mode, ctl.mode());
+        prop_assert_eq!(
+            out.breakaway_reason.is_some(),
+            out.mode == Mode::Breakaway,
+            "breakaway iff a reason: {}",
+            at
+        );
+
+        let steps = u32::try_from(k + 1).expect("short sequence");
+        prop_assert_eq!(after.steps, steps);
+        prop_assert_eq!(out.step, steps);
+        let errors = error_counters(&after);
+        prop_assert_eq!(
+            errors.iter().sum::<u32>() + after.frames_valid,
+            after.steps,
+            "every frame counted once: {:?}",
+            after
+        );
+        let moved: Vec<usize> = (0..7)
+            .filter(|&i| errors[i] != error_counters(&before)[i])
+            .collect();
+        match out.measurement_error {
+            Some(e) => {
+                prop_assert_eq!(&moved, &vec![error_index(e)], "{}", at);
+                prop_assert_eq!(
+                    errors[error_index(e)],
+                    error_counters(&before)[error_index(e)] + 1
+                );
+                prop_assert_eq!(after.frames_valid, before.frames_valid);
+            }
+            None => {
+                prop_assert!(moved.is_empty(), "{}", at);
+                prop_assert_eq!(after.frames_valid, before.frames_valid + 1);
+            }
+        }
+        before = after;
+    }
+    Ok(())
+}
+
+/// A frame a tracker could produce with the drogue in view between 2 and 10 m.
+fn plausible_frame() -> impl Strategy<Value = CameraMeasurement> {
+    (any::<u32>(), -0.6_f32..0.6, -0.45_f32..0.45, 2.0_f32..10.0).prop_map(|(seq, x, y, z)| {
+        CameraMeasurement {
+            seq,
+            tracked: true,
+            image_x: x,
+            image_y: y,
+            depth_m: z,
+        }
+    })
+}
+
+fn engages_on_first_step(
+    cfg: ControllerConfig,
+    measurement: CameraMeasurement,
+    nav: NavSample,
+) -> Result<(), TestCaseError> {
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let out = ctl.step(&ControllerInput {
+        measurement,
+        nav,
+        probe_contact: false,
+        request: ModeRequest::Engage,
+    });
+    prop_assert_eq!(out.mode, Mode::Approach, "{:?}", out);
+    prop_assert_eq!(out.measurement_error, None);
+    prop_assert_eq!(out.nav_error, None);
+    prop_assert!(!out.status.contains(StatusFlags::ENGAGE_REFUSED));
+    prop_assert_eq!(ctl.counters().engage_refused, 0);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    #[test]
+    fn ibvs_step_keeps_its_invariants_on_arbitrary_inputs(inputs in input_sequence()) {
+        check_invariants(ibvs_config(), &inputs)?;
+    }
+
+    #[test]
+    fn pbvs_step_keeps_its_invariants_on_arbitrary_inputs(inputs in input_sequence()) {
+        check_invariants(pbvs_config(), &inputs)?;
+    }
+
+    #[test]
+    fn ibvs_engages_on_the_first_plausible_step(m in plausible_frame(), nav in plausible_nav()) {
+        engages_on_first_step(ibvs_config(), m, nav)?;
+    }
+
+    #[test]
+    fn pbvs_engages_on_the_first_plausible_step(m in plausible_frame(), nav in plausible_nav()) {
+        engages_on_first_step(pbvs_config(), m, nav)?;
+    }
+}
