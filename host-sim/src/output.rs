@@ -291,7 +291,7 @@ pub fn write_plots(path: &Path, run: &Run) -> Result<(), OutputError> {
     )?;
     time_panel(
         &panels[2],
-        "Desired (dashed: actual) probe velocity, re axes",
+        "Desired (pale: actual) probe velocity, re axes",
         "m/s",
         &[
             (
