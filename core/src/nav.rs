@@ -117,6 +117,32 @@ impl NavSample {
         ]
     }
 
+    /// The inverse of [`NavSample::as_array`].
+    pub fn from_array(a: [f32; 12]) -> Self {
+        let [x_fwd_m, h_up_m, theta_rad, v_mps, alpha_rad, q_radps] =
+            [a[0], a[1], a[2], a[3], a[4], a[5]];
+        let [y_right_m, psi_rad, phi_rad, beta_rad, p_radps, r_radps] =
+            [a[6], a[7], a[8], a[9], a[10], a[11]];
+        Self {
+            lon: LonNav {
+                x_fwd_m,
+                h_up_m,
+                theta_rad,
+                v_mps,
+                alpha_rad,
+                q_radps,
+            },
+            lat: LatNav {
+                y_right_m,
+                psi_rad,
+                phi_rad,
+                beta_rad,
+                p_radps,
+                r_radps,
+            },
+        }
+    }
+
     /// Checks the sample is finite and inside `env`.
     pub fn validate(&self, env: &NavEnvelope) -> Result<(), NavError> {
         if !self.as_array().iter().all(|v| v.is_finite()) {
@@ -182,6 +208,12 @@ mod tests {
         let mut fast = ok;
         fast.lon.v_mps = -31.0;
         assert_eq!(fast.validate(&env), Err(NavError::OutsideEnvelope));
+    }
+
+    #[test]
+    fn array_round_trips() {
+        let a: [f32; 12] = core::array::from_fn(|i| i as f32);
+        assert_eq!(NavSample::from_array(a).as_array(), a);
     }
 
     #[test]

@@ -19,7 +19,7 @@
 
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
-use ibvs_core::nav::{LatNav, LonNav, NavSample};
+use ibvs_core::nav::NavSample;
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw,
 };
@@ -98,23 +98,10 @@ fn plausible_nav() -> impl Strategy<Value = NavSample> {
             -1.4_f32..1.4,
         ),
     )
-        .prop_map(|(lon, lat)| NavSample {
-            lon: LonNav {
-                x_fwd_m: lon.0,
-                h_up_m: lon.1,
-                theta_rad: lon.2,
-                v_mps: lon.3,
-                alpha_rad: lon.4,
-                q_radps: lon.5,
-            },
-            lat: LatNav {
-                y_right_m: lat.0,
-                psi_rad: lat.1,
-                phi_rad: lat.2,
-                beta_rad: lat.3,
-                p_radps: lat.4,
-                r_radps: lat.5,
-            },
+        .prop_map(|(lon, lat)| {
+            NavSample::from_array([
+                lon.0, lon.1, lon.2, lon.3, lon.4, lon.5, lat.0, lat.1, lat.2, lat.3, lat.4, lat.5,
+            ])
         })
 }
 
@@ -125,23 +112,10 @@ fn wild_nav() -> impl Strategy<Value = NavSample> {
         (f(), f(), f(), f(), f(), f()),
         (f(), f(), f(), f(), f(), f()),
     )
-        .prop_map(|(lon, lat)| NavSample {
-            lon: LonNav {
-                x_fwd_m: lon.0,
-                h_up_m: lon.1,
-                theta_rad: lon.2,
-                v_mps: lon.3,
-                alpha_rad: lon.4,
-                q_radps: lon.5,
-            },
-            lat: LatNav {
-                y_right_m: lat.0,
-                psi_rad: lat.1,
-                phi_rad: lat.2,
-                beta_rad: lat.3,
-                p_radps: lat.4,
-                r_radps: lat.5,
-            },
+        .prop_map(|(lon, lat)| {
+            NavSample::from_array([
+                lon.0, lon.1, lon.2, lon.3, lon.4, lon.5, lat.0, lat.1, lat.2, lat.3, lat.4, lat.5,
+            ])
         })
 }
 
