@@ -8,9 +8,14 @@
 //! Invariant: each model here is a pure function of the truth it is given plus its own
 //! seeded state, so a run is reproducible.
 
+pub mod bow_wave;
 pub mod camera;
 pub mod drogue;
+pub mod hose;
+pub mod led_camera;
 pub mod nav;
+pub mod turbulence;
+pub mod wake;
 
 use nalgebra::{Rotation3, Vector3};
 
