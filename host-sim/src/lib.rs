@@ -20,6 +20,7 @@ pub mod docking;
 pub mod linearize;
 pub mod output;
 pub mod pil;
+pub mod plot;
 pub mod receiver;
 pub mod sim;
 pub mod synthesis;

@@ -13,12 +13,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use host_sim::output;
 use host_sim::receiver::F16;
 use host_sim::sim::{self, Scenario};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
+use host_sim::{output, plot};
 use ibvs_core::{Controller, ControllerConfig, OuterLaw};
 use nalgebra::Vector3;
 
@@ -85,7 +85,7 @@ enum Command {
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,
-        /// Directory for run.csv, summary.json and dock.svg.
+        /// Directory for run.csv, summary.json and dock.png.
         #[arg(long, value_name = "DIR", default_value = "out/dock")]
         out: PathBuf,
         /// Write no files.
@@ -223,9 +223,9 @@ fn dock(
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         output::write_csv(&dir.join("run.csv"), &run)?;
         output::write_summary(&dir.join("summary.json"), &run)?;
-        output::write_plots(&dir.join("dock.svg"), &run)?;
+        plot::write_dock_figure(&dir.join("dock.png"), &run)?;
         eprintln!(
-            "wrote {0}/run.csv, {0}/summary.json, {0}/dock.svg",
+            "wrote {0}/run.csv, {0}/summary.json, {0}/dock.png",
             dir.display()
         );
     }
