@@ -140,9 +140,9 @@ fn dock_writes_its_files_and_pbvs_is_selectable() {
     }
     assert!(csv.lines().count() > 100);
     assert!(
-        std::fs::read_to_string(dir.join("dock.svg"))
+        std::fs::read(dir.join("dock.png"))
             .unwrap()
-            .starts_with("<svg")
+            .starts_with(b"\x89PNG")
     );
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
