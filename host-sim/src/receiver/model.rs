@@ -173,7 +173,13 @@ impl F16 {
 
     /// Aerodynamic and thrust loads for state `x` in `wind` (body axes, about the CG).
     pub fn body_loads(&self, x: &ReceiverState, wind: &Wind) -> BodyLoads {
-        self.body_loads_with(x, &self.air_data(x, wind))
+        let ned_from_body = ned_from_body(x);
+        self.body_loads_with(
+            x,
+            &self.air_data_with(x, &ned_from_body, wind),
+            &ned_from_body,
+            wind,
+        )
     }
 
     /// Time derivative of state `x` under `cmd` in `wind`, in [`super::state_index`] order
@@ -185,7 +191,12 @@ impl F16 {
         wind: &Wind,
     ) -> StateVector {
         let ned_from_body = ned_from_body(x);
-        let loads = self.body_loads_with(x, &self.air_data_with(x, &ned_from_body, wind));
+        let loads = self.body_loads_with(
+            x,
+            &self.air_data_with(x, &ned_from_body, wind),
+            &ned_from_body,
+            wind,
+        );
         let omega = x.rate_body_radps;
         let gravity_body =
             ned_from_body.inverse_transform_vector(&(Vector3::z() * self.gravity_mps2));
@@ -238,7 +249,13 @@ impl F16 {
         }
     }
 
-    fn body_loads_with(&self, x: &ReceiverState, air: &AirData) -> BodyLoads {
+    fn body_loads_with(
+        &self,
+        x: &ReceiverState,
+        air: &AirData,
+        ned_from_body: &Rotation3<f64>,
+        wind: &Wind,
+    ) -> BodyLoads {
         let surfaces = &x.surfaces_rad;
         let c = self.aero.coefficients(&AeroInput {
             alpha_deg: air.alpha_rad.to_degrees(),
@@ -247,7 +264,8 @@ impl F16 {
             aileron_deg: surfaces.aileron_rad.to_degrees(),
             rudder_deg: surfaces.rudder_rad.to_degrees(),
             airspeed_mps: air.airspeed_mps,
-            rate_body_radps: x.rate_body_radps,
+            rate_body_radps: x.rate_body_radps
+                - ned_from_body.inverse_transform_vector(&wind.angular_rate_ned_radps),
         });
         let g = &self.geometry;
         let qbar_s_n = air.dynamic_pressure_pa * g.wing_area_m2;
@@ -350,6 +368,29 @@ mod tests {
     }
 
     #[test]
+    fn air_mass_rotation_acts_like_the_opposite_body_rate() {
+        let (model, trim) = model_and_trim();
+        let mut spinning = trim.state;
+        spinning.rate_body_radps = Vector3::new(0.1, -0.05, 0.02);
+        // Air rotating with the body: the damping terms see no relative rate.
+        let co_rotating = Wind {
+            angular_rate_ned_radps: ned_from_body(&spinning) * spinning.rate_body_radps,
+            ..Wind::default()
+        };
+        let a = model.body_loads(&spinning, &co_rotating);
+        let b = model.body_loads(&trim.state, &Wind::default());
+        assert!(
+            (a.moment_body_nm - b.moment_body_nm).norm() < 1e-6 * b.moment_body_nm.norm().max(1.0)
+        );
+        assert!((a.force_body_n - b.force_body_n).norm() < 1e-6 * b.force_body_n.norm());
+        let plain = model.body_loads(&spinning, &Wind::default());
+        assert!(
+            (plain.moment_body_nm - b.moment_body_nm).norm() > 1.0,
+            "rates do damp"
+        );
+    }
+
+    #[test]
     fn wind_equals_the_opposite_change_of_ground_velocity() {
         let (model, trim) = model_and_trim();
         let mut with_wind = trim.state;
@@ -357,6 +398,7 @@ mod tests {
         with_wind.rate_body_radps = Vector3::new(0.05, -0.03, 0.02);
         let wind = Wind {
             velocity_ned_mps: Vector3::new(-8.0, 5.0, 1.5),
+            ..Wind::default()
         };
         let wind_body = ned_from_body(&with_wind).inverse_transform_vector(&wind.velocity_ned_mps);
         let still_air = ReceiverState {

@@ -138,6 +138,10 @@ pub struct Wind {
     /// Air-mass velocity relative to the ground, NED, m/s (a north wind blowing south is
     /// (-V, 0, 0)).
     pub velocity_ned_mps: Vector3<f64>,
+    /// Air-mass rotation rate, NED axes, rad/s (e.g. from the spanwise and lengthwise
+    /// gradients of a vortex wake). The aerodynamic damping terms see the body rates relative
+    /// to it.
+    pub angular_rate_ned_radps: Vector3<f64>,
 }
 
 #[cfg(test)]
