@@ -104,6 +104,7 @@ impl Default for ControllerConfig {
                 k4_mps: 3.0,
                 k5_mps: 1.0,
                 convergence_point: [0.0, 0.0],
+                max_cartesian_gain_per_s: 0.7,
             },
             pbvs: PbvsGains {
                 k_lat_per_s: 0.4,
@@ -175,6 +176,10 @@ impl ControllerConfig {
         check("ibvs.k3_per_s", g.k3_per_s, true)?;
         check("ibvs.k4_mps", g.k4_mps, false)?;
         check("ibvs.k5_mps", g.k5_mps, false)?;
+        require(
+            "ibvs.max_cartesian_gain_per_s (positive; infinity allowed)",
+            g.max_cartesian_gain_per_s > 0.0,
+        )?;
         for v in g.convergence_point {
             require(
                 "ibvs.convergence_point (finite, inside the field of view)",

@@ -105,7 +105,7 @@ pub struct ModeConfig {
 impl Default for ModeConfig {
     fn default() -> Self {
         Self {
-            terminal_depth_m: 1.0,
+            terminal_depth_m: 0.7,
             terminal_max_offset_m: 0.3,
             terminal_overshoot_m: 0.5,
             terminal_timeout_s: 5.0,
@@ -276,6 +276,8 @@ mod tests {
     use super::*;
 
     const TS: f32 = 0.02;
+    /// A depth just inside the default terminal threshold (0.7 m), m.
+    const NEAR_M: f32 = 0.6;
 
     fn inputs() -> ModeInputs {
         ModeInputs {
@@ -315,7 +317,7 @@ mod tests {
             target: Some(TargetEstimate {
                 right_m: offset_m,
                 down_m: 0.0,
-                depth_m: 0.9,
+                depth_m: NEAR_M,
             }),
             ..inputs()
         }
@@ -414,7 +416,7 @@ mod tests {
     fn terminal_entry_holds_the_commands_or_predicts_a_miss() {
         let m = terminal();
         assert_eq!(m.terminal().held, inputs().v_des);
-        assert_eq!(m.terminal().depth_m, 0.9);
+        assert_eq!(m.terminal().depth_m, NEAR_M);
         let mut miss = engaged();
         miss.update(&near(0.31), &ModeConfig::default(), TS);
         assert_eq!(
@@ -442,13 +444,13 @@ mod tests {
     fn terminal_dead_reckons_past_the_plane_into_a_miss() {
         let cfg = ModeConfig::default();
         let mut m = terminal();
-        // 0.9 m + 0.5 m overshoot at 0.8 m/s: 1.75 s, i.e. past the limit on step 88.
+        // 0.6 m + 0.5 m overshoot at 0.8 m/s: 1.375 s, i.e. past the limit on step 69.
         let blind = ModeInputs {
             target: None,
             camera_fwd_mps: 0.8,
             ..inputs()
         };
-        for _ in 0..87 {
+        for _ in 0..68 {
             m.update(&blind, &cfg, TS);
             assert_eq!(m.mode(), Mode::Terminal, "depth {}", m.terminal().depth_m);
         }

@@ -43,6 +43,10 @@ pub struct IbvsGains {
     pub k5_mps: f32,
     /// Image convergence point `(x_o, y_o)` of eq. (2), normalised; the origin in the paper.
     pub convergence_point: [f32; 2],
+    /// Cap on the Cartesian gains `k1 / z` and `k2 / z`, 1/s (ours, not the paper's): near the
+    /// drogue the IBVS gain grows as 1/z past the inner loops' bandwidth; the cap keeps the
+    /// outer loop slower than the inner one. Infinity gives the paper's law.
+    pub max_cartesian_gain_per_s: f32,
 }
 
 /// Gains of the PBVS baseline, Cartesian: the same structure as IBVS with the image error
@@ -110,17 +114,18 @@ pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
     }
 }
 
-/// IBVS law: `v_x = k1 e_x`, `v_y = k2 e_y`,
+/// IBVS law: `v_x = min(k1, g z) e_x`, `v_y = min(k2, g z) e_y` (`g`: the Cartesian-gain cap),
 /// `v_z = min(max(k3 z - k4 |e_x| - k5 |e_y|, a), v_max)`, lateral and vertical saturated.
 pub fn ibvs(f: &ImageFeature, g: &IbvsGains, lim: &VelocityLimits) -> OuterOutput {
     let e_x = f.image_x - g.convergence_point[0];
     let e_y = f.image_y - g.convergence_point[1];
     let z = f.depth_m;
+    let cap = g.max_cartesian_gain_per_s * z;
     let raw_close = g.k3_per_s * z - g.k4_mps * libm::fabsf(e_x) - g.k5_mps * libm::fabsf(e_y);
     OuterOutput {
         v_des: VelocityRe {
-            x_right_mps: clamp_sym(g.k1_mps * e_x, lim.max_lateral_mps),
-            y_down_mps: clamp_sym(g.k2_mps * e_y, lim.max_vertical_mps),
+            x_right_mps: clamp_sym(g.k1_mps.min(cap) * e_x, lim.max_lateral_mps),
+            y_down_mps: clamp_sym(g.k2_mps.min(cap) * e_y, lim.max_vertical_mps),
             z_fwd_mps: closing_speed(raw_close, lim),
         },
         target: TargetEstimate {
@@ -240,6 +245,30 @@ mod tests {
         assert_eq!(
             ibvs(&feature(0.0, 0.0, 0.1), g, lim).v_des.z_fwd_mps,
             lim.min_closing_mps
+        );
+    }
+
+    #[test]
+    fn ibvs_gain_cap_limits_k_over_z_near_the_drogue() {
+        let c = ControllerConfig::default();
+        let (g, lim) = (&c.ibvs, &c.velocity_limits);
+        let cap = g.max_cartesian_gain_per_s;
+        // Far: the paper's k1 e_x. Near: cap z e_x, i.e. cap times the lateral offset.
+        let far_z = 2.0 * g.k1_mps / cap;
+        assert_eq!(
+            ibvs(&feature(0.1, 0.0, far_z), g, lim).v_des.x_right_mps,
+            g.k1_mps * 0.1
+        );
+        let near = ibvs(&feature(0.1, 0.1, 0.5), g, lim).v_des;
+        assert!((near.x_right_mps - cap * 0.5 * 0.1).abs() < 1e-6);
+        assert!((near.y_down_mps - cap * 0.5 * 0.1).abs() < 1e-6);
+        let paper = IbvsGains {
+            max_cartesian_gain_per_s: f32::INFINITY,
+            ..*g
+        };
+        assert_eq!(
+            ibvs(&feature(0.1, 0.1, 0.5), &paper, lim).v_des.y_down_mps,
+            g.k2_mps * 0.1
         );
     }
 

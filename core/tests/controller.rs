@@ -580,9 +580,10 @@ fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
 fn a_large_offset_at_the_terminal_depth_predicts_a_miss() {
     let cfg = ControllerConfig::default();
     let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
+    // 1.3 times the limit: still inside the field of view at the terminal depth.
     let out = rig.step(at_terminal_depth(
         &cfg,
-        2.0 * cfg.modes.terminal_max_offset_m,
+        1.3 * cfg.modes.terminal_max_offset_m,
     ));
     assert_eq!(out.mode, Mode::Breakaway);
     assert_eq!(out.breakaway_reason, Some(BreakawayReason::PredictedMiss));

@@ -19,9 +19,11 @@
 pub mod docking;
 pub mod linearize;
 pub mod output;
+pub mod paper;
 pub mod pil;
 pub mod plot;
 pub mod receiver;
+pub mod scenario;
 pub mod sim;
 pub mod synthesis;
 pub mod world;

@@ -1,26 +1,31 @@
-//! `host-sim`: trim the receiver, synthesise the gains, fly a docking.
+//! `host-sim`: trim the receiver, synthesise the gains, fly dockings, reproduce the paper.
 //!
 //! ```text
-//! host-sim trim  [--speed-mps V] [--altitude-m H] [--xcg X] [--json]
-//! host-sim gains [--json] [--write-core PATH]
-//! host-sim dock  [--controller ibvs|pbvs] [--start FWD,RIGHT,DOWN] [--json] [--out DIR] [--no-files]
+//! host-sim trim      [--speed-mps V] [--altitude-m H] [--xcg X] [--json]
+//! host-sim gains     [--json] [--write-core PATH]
+//! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
+//!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
+//!                    [--json] [--out DIR] [--no-files]
+//! host-sim scenarios
+//! host-sim scenario show NAME|PATH
+//! host-sim paper     [--out DIR] [--seeds N]
 //! ```
 //!
 //! Exit status: 0 on success (for `dock`: the run completed, whatever its outcome), 1 on an
 //! error, which is printed to stderr.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
 use host_sim::receiver::F16;
-use host_sim::sim::{self, Scenario};
+use host_sim::scenario::{Law, PRESETS, ScenarioFile};
+use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
-use host_sim::{output, plot};
-use ibvs_core::{Controller, ControllerConfig, OuterLaw};
-use nalgebra::Vector3;
+use host_sim::{output, paper, plot};
+use ibvs_core::Controller;
 
 #[derive(Parser)]
 #[command(
@@ -31,12 +36,6 @@ use nalgebra::Vector3;
 struct Cli {
     #[command(subcommand)]
     command: Command,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum Law {
-    Ibvs,
-    Pbvs,
 }
 
 #[derive(Subcommand)]
@@ -65,23 +64,29 @@ enum Command {
         #[arg(long, value_name = "PATH")]
         write_core: Option<PathBuf>,
     },
-    /// Fly one docking from trim in calm air.
+    /// Fly one docking. Options given here override the scenario's values.
     Dock {
+        /// A built-in scenario (`host-sim scenarios` lists them) or a TOML file.
+        #[arg(long, value_name = "NAME|PATH", default_value = "calm")]
+        scenario: String,
         /// Outer loop.
-        #[arg(long, value_enum, default_value_t = Law::Ibvs)]
-        controller: Law,
+        #[arg(long, value_enum)]
+        controller: Option<Law>,
         /// Drogue centre minus probe tip at the start, tanker axes (forward, right, down), m.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = sim::PAPER_START_M)]
-        start: Vec<f64>,
-        /// Time budget, s.
-        #[arg(long, default_value_t = 70.0)]
-        duration_s: f64,
-        /// IBVS outer gains k1,k2,k3,k4,k5 (normalised image units; default: the controller's).
-        #[arg(long, value_delimiter = ',')]
-        ibvs_gains: Option<Vec<f32>>,
-        /// Minimum closing speed a, m/s (default: the controller's).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        start: Option<Vec<f64>>,
+        /// Seed of every random process.
         #[arg(long)]
-        min_closing_mps: Option<f32>,
+        seed: Option<u64>,
+        /// IBVS outer gains k1,k2,k3,k4,k5 (normalised image units).
+        #[arg(long, value_delimiter = ',')]
+        ibvs_gains: Option<Vec<f64>>,
+        /// Minimum closing speed a, m/s.
+        #[arg(long)]
+        min_closing_mps: Option<f64>,
+        /// Time budget, s.
+        #[arg(long)]
+        duration_s: Option<f64>,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,
@@ -91,6 +96,31 @@ enum Command {
         /// Write no files.
         #[arg(long)]
         no_files: bool,
+    },
+    /// List the built-in scenarios.
+    Scenarios,
+    /// Work with one scenario.
+    Scenario {
+        #[command(subcommand)]
+        action: ScenarioAction,
+    },
+    /// Run the paper's four experiments and write their figures, data and summary table.
+    Paper {
+        /// Output directory.
+        #[arg(long, value_name = "DIR", default_value = "out/paper")]
+        out: PathBuf,
+        /// Seeds per experiment.
+        #[arg(long, default_value_t = paper::DEFAULT_SEEDS)]
+        seeds: u64,
+    },
+}
+
+#[derive(Subcommand)]
+enum ScenarioAction {
+    /// Print a scenario as TOML, every key written out, to copy and edit.
+    Show {
+        /// Preset name or file.
+        name: String,
     },
 }
 
@@ -116,37 +146,59 @@ fn run(cli: Cli) -> Result<(), AnyError> {
         } => trim(speed_mps, altitude_m, xcg, json),
         Command::Gains { json, write_core } => gains(json, write_core),
         Command::Dock {
+            scenario,
             controller,
             start,
-            duration_s,
+            seed,
             ibvs_gains,
             min_closing_mps,
+            duration_s,
             json,
             out,
             no_files,
         } => {
-            let mut cfg = ControllerConfig {
-                law: match controller {
-                    Law::Ibvs => OuterLaw::Ibvs,
-                    Law::Pbvs => OuterLaw::Pbvs,
-                },
-                ..ControllerConfig::default()
-            };
-            if start.len() != 3 {
-                return Err("--start takes three values: forward,right,down".into());
+            let mut f = ScenarioFile::load(&scenario)?;
+            if let Some(c) = controller {
+                f.controller = c;
+            }
+            if let Some(v) = start {
+                f.initial.drogue_minus_probe_m = v
+                    .try_into()
+                    .map_err(|_| "--start takes three values: forward,right,down")?;
+            }
+            if let Some(v) = seed {
+                f.seed = v;
             }
             if let Some(k) = ibvs_gains {
-                if k.len() != 5 {
-                    return Err("--ibvs-gains takes five values: k1,k2,k3,k4,k5".into());
-                }
-                let g = &mut cfg.ibvs;
-                (g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps) =
-                    (k[0], k[1], k[2], k[3], k[4]);
+                f.gains.k = k
+                    .try_into()
+                    .map_err(|_| "--ibvs-gains takes five values: k1,k2,k3,k4,k5")?;
             }
             if let Some(a) = min_closing_mps {
-                cfg.velocity_limits.min_closing_mps = a;
+                f.gains.min_closing_mps = a;
             }
-            dock(cfg, &start, duration_s, json, (!no_files).then_some(out))
+            if let Some(t) = duration_s {
+                f.duration_s = t;
+            }
+            f.validate()?;
+            dock(&f, json, (!no_files).then_some(out))
+        }
+        Command::Scenarios => {
+            for (name, description, _) in PRESETS {
+                println!("{name:<24} {description}");
+            }
+            Ok(())
+        }
+        Command::Scenario {
+            action: ScenarioAction::Show { name },
+        } => {
+            print!("{}", ScenarioFile::load(&name)?.to_toml());
+            Ok(())
+        }
+        Command::Paper { out, seeds } => {
+            let report = paper::run_all(&out, seeds)?;
+            print!("{report}");
+            Ok(())
         }
     }
 }
@@ -205,25 +257,20 @@ fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     Ok(())
 }
 
-fn dock(
-    cfg: ControllerConfig,
-    start: &[f64],
-    duration_s: f64,
-    json: bool,
-    out: Option<PathBuf>,
-) -> Result<(), AnyError> {
-    let scenario = Scenario {
-        start_offset_m: Vector3::from_column_slice(start),
-        duration_s,
-        ..Scenario::default()
-    };
-    let mut controller = Controller::new(cfg)?;
-    let run = sim::run(&scenario, &mut controller)?;
+/// Writes a run's CSV, summary and figure into `dir`.
+fn write_run(dir: &Path, run: &Run) -> Result<(), AnyError> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    output::write_csv(&dir.join("run.csv"), run)?;
+    output::write_summary(&dir.join("summary.json"), run)?;
+    plot::write_dock_figure(&dir.join("dock.png"), run)?;
+    Ok(())
+}
+
+fn dock(f: &ScenarioFile, json: bool, out: Option<PathBuf>) -> Result<(), AnyError> {
+    let mut controller = Controller::new(f.controller_config())?;
+    let run = sim::run(&f.scenario(), &mut controller)?;
     if let Some(dir) = &out {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        output::write_csv(&dir.join("run.csv"), &run)?;
-        output::write_summary(&dir.join("summary.json"), &run)?;
-        plot::write_dock_figure(&dir.join("dock.png"), &run)?;
+        write_run(dir, &run)?;
         eprintln!(
             "wrote {0}/run.csv, {0}/summary.json, {0}/dock.png",
             dir.display()
@@ -233,18 +280,7 @@ fn dock(
     if json {
         println!("{}", serde_json::to_string(s)?);
     } else {
-        let num =
-            |v: Option<f64>, unit: &str| v.map_or("n/a".to_string(), |v| format!("{v:.3} {unit}"));
-        println!(
-            "{:?}: miss {}, closure {}, at {:.2} s{}",
-            s.outcome,
-            num(s.miss_m, "m"),
-            num(s.closure_mps, "m/s"),
-            s.time_s,
-            s.breakaway_reason
-                .as_ref()
-                .map_or(String::new(), |r| format!(", breakaway: {r}")),
-        );
+        println!("{}", output::one_line(s));
     }
     Ok(())
 }

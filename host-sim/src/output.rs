@@ -10,7 +10,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::linearize::design_coordinates;
-use crate::sim::{Run, Sample};
+use crate::sim::{Run, Sample, Summary};
 
 /// Why output could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -136,6 +136,22 @@ pub fn write_csv(path: &Path, run: &Run) -> Result<(), OutputError> {
         path: path.display().to_string(),
         source,
     })
+}
+
+/// The one-line summary `dock` prints: outcome, miss, closing speed, time, breakaway reason.
+pub fn one_line(s: &Summary) -> String {
+    let num =
+        |v: Option<f64>, unit: &str| v.map_or("n/a".to_string(), |v| format!("{v:.3} {unit}"));
+    format!(
+        "{:?}: miss {}, closure {}, at {:.2} s{}",
+        s.outcome,
+        num(s.miss_m, "m"),
+        num(s.closure_mps, "m/s"),
+        s.time_s,
+        s.breakaway_reason
+            .as_ref()
+            .map_or(String::new(), |r| format!(", breakaway: {r}")),
+    )
 }
 
 /// Writes the summary as pretty JSON.

@@ -1,9 +1,10 @@
 //! The closed loop: the flight computer flies the nonlinear receiver toward the drogue.
 //!
-//! One control step of period `Ts` (the core's): the camera takes a frame and the navigation
-//! a sample of the current truth, the flight computer computes its commands, and the plant
-//! is integrated over `Ts` in `plant_substeps` RK4 steps with the commands held (zero-order
-//! hold), the docking plane checked after every substep.
+//! One control step of period `Ts` (the core's): the camera delivers its latest frame and the
+//! navigation a sample of the current truth, the flight computer computes its commands, and
+//! the receiver and the world (air, hose and drogue) are integrated over `Ts` in
+//! `plant_substeps` steps with the commands held (zero-order hold), the docking plane checked
+//! after every substep.
 //!
 //! The flight computer is a trait, so the same run drives the core in-process or the firmware
 //! inside an emulated MCU.
@@ -18,14 +19,21 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::docking::{Contact, PlaneCrossing};
-use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError, Wind};
+use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError};
+use crate::scenario::{CameraModel, DrogueModel, ScenarioFile};
 use crate::synthesis::{
     CONTROL_PERIOD_S, NOMINAL_XCG, PROBE_TIP_BODY_M, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS,
 };
 use crate::world::camera::{CameraParams, PinholeCamera};
 use crate::world::drogue::{CAPTURE_RADIUS_M, FixedDrogue};
+use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
+use crate::world::led_camera::{CameraError, LedCamera, LedCameraParams};
 use crate::world::nav::PerfectNav;
-use crate::world::{Tanker, ned_from_body, point_in_tanker_m};
+use crate::world::turbulence::{
+    DrydenParams, GustField, HIGH_ALTITUDE_SCALE_LENGTH_M, TurbulenceError,
+};
+use crate::world::wake::{TankerWake, WakeError, WakeParams};
+use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
 
 /// Something that turns one step's input into one step's output: the core in-process, or
 /// the firmware behind a serial link.
@@ -43,14 +51,22 @@ impl FlightComputer for Controller {
 /// The paper's start: drogue minus probe tip, tanker axes (6 m ahead, 2 m right, 2 m up), m.
 pub const PAPER_START_M: [f64; 3] = [6.0, 2.0, -2.0];
 
+/// Salts that give each random process of a run its own seed from the run's seed.
+const TURBULENCE_SEED_SALT: u64 = 0x7475_7262; // "turb"
+const CAMERA_SEED_SALT: u64 = 0x6361_6d65; // "came"
+
 /// What to simulate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
+    /// Name, for reports.
+    pub name: String,
+    /// Seed of every random process of the run.
+    pub seed: u64,
     /// Drogue centre minus probe tip at t = 0, tanker axes, m.
     pub start_offset_m: Vector3<f64>,
     /// Time budget, s (the authors': 70 s).
     pub duration_s: f64,
-    /// RK4 substeps per control step.
+    /// Physics substeps per control step.
     pub plant_substeps: u32,
     /// Time simulated after a miss or a breakaway (to record the response), s.
     pub after_event_s: f64,
@@ -58,17 +74,38 @@ pub struct Scenario {
     pub tanker: Tanker,
     /// Receiver cg, fraction of the mean chord.
     pub xcg: f64,
-    /// Camera intrinsics and limits.
-    pub camera: CameraParams,
+    /// Drogue model: `None` holds it at its nominal trail.
+    pub hose: Option<HoseParams>,
+    /// Camera model.
+    pub camera: CameraChoice,
     /// True camera position (the probe tip, paper Assumption 3), body axes, m.
     pub camera_body_m: Vector3<f64>,
     /// Probe tip, body axes, m.
     pub probe_tip_body_m: Vector3<f64>,
+    /// RMS gust speed, m/s (0: calm).
+    pub turbulence_sigma_mps: f64,
+    /// Tanker wake: `None` is off.
+    pub wake: Option<WakeParams>,
+    /// Bow wave on the drogue.
+    pub bow_wave: bool,
 }
 
-impl Default for Scenario {
-    fn default() -> Self {
+/// The camera model and its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraChoice {
+    /// Ideal pinhole.
+    Ideal(CameraParams),
+    /// LED ring with noise, fit, latency and drops.
+    Led(LedCameraParams),
+}
+
+impl Scenario {
+    /// The vertical slice's world: calm air, no wake, the drogue held at its nominal trail, an
+    /// ideal camera; paper start.
+    pub fn ideal() -> Self {
         Self {
+            name: "ideal".into(),
+            seed: 1,
             start_offset_m: Vector3::from(PAPER_START_M),
             duration_s: 70.0,
             plant_substeps: 2,
@@ -78,10 +115,47 @@ impl Default for Scenario {
                 altitude_m: REFUELLING_ALTITUDE_M,
             },
             xcg: NOMINAL_XCG,
-            camera: CameraParams::default(),
+            hose: None,
+            camera: CameraChoice::Ideal(CameraParams::default()),
             camera_body_m: Vector3::from(PROBE_TIP_BODY_M),
             probe_tip_body_m: Vector3::from(PROBE_TIP_BODY_M),
+            turbulence_sigma_mps: 0.0,
+            wake: None,
+            bow_wave: false,
         }
+    }
+
+    /// The simulator's scenario for a scenario file.
+    pub fn from_file(f: &ScenarioFile) -> Self {
+        let c = &f.camera;
+        Self {
+            name: f.name.clone(),
+            seed: f.seed,
+            start_offset_m: Vector3::from(f.initial.drogue_minus_probe_m),
+            duration_s: f.duration_s,
+            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
+            camera: match c.model {
+                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
+                CameraModel::Led => CameraChoice::Led(LedCameraParams {
+                    pixel_noise_px: c.pixel_noise_px,
+                    latency_frames: c.latency_frames,
+                    rate_hz: c.rate_hz,
+                    drop_probability: c.drop_probability,
+                    ..LedCameraParams::default()
+                }),
+            },
+            turbulence_sigma_mps: f.sigma_mps(),
+            wake: f.tanker_wake.enabled.then(WakeParams::default),
+            bow_wave: f.bow_wave.enabled,
+            ..Self::ideal()
+        }
+    }
+}
+
+impl Default for Scenario {
+    /// The default scenario file's: paper start, calm air, wake, hose, LED camera.
+    fn default() -> Self {
+        Self::from_file(&ScenarioFile::default())
     }
 }
 
@@ -108,6 +182,10 @@ pub struct Sample {
     pub measurement: CameraMeasurement,
     /// What the flight computer answered.
     pub output: ControllerOutput,
+    /// Drogue centre, tanker frame, m.
+    pub drogue_tanker_m: Vector3<f64>,
+    /// Probe tip, tanker frame, m.
+    pub tip_tanker_m: Vector3<f64>,
     /// Drogue centre minus probe tip, tanker axes, m.
     pub drogue_from_tip_m: Vector3<f64>,
     /// Probe-tip velocity relative to the tanker, tanker axes, m/s.
@@ -158,6 +236,64 @@ pub enum SimError {
     /// Bad scenario value.
     #[error("invalid scenario: {0}")]
     Scenario(&'static str),
+    /// The hose could not be built or did not settle.
+    #[error(transparent)]
+    Hose(#[from] HoseError),
+    /// Bad camera parameters.
+    #[error(transparent)]
+    Camera(#[from] CameraError),
+    /// Bad turbulence parameters.
+    #[error(transparent)]
+    Turbulence(#[from] TurbulenceError),
+    /// Bad wake parameters.
+    #[error(transparent)]
+    Wake(#[from] WakeError),
+}
+
+/// Builds the world of a scenario: the hose settled in its steady trail in the run's steady
+/// air (free stream and wake), the camera on the trim-level mount, seeded random processes.
+pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
+    let wake = s.wake.map(TankerWake::new).transpose()?;
+    let gusts = (s.turbulence_sigma_mps > 0.0)
+        .then(|| {
+            let params = DrydenParams {
+                sigma_mps: s.turbulence_sigma_mps,
+                length_m: HIGH_ALTITUDE_SCALE_LENGTH_M,
+                airspeed_mps: s.tanker.speed_mps,
+            };
+            GustField::new(params, dt_s, s.seed ^ TURBULENCE_SEED_SALT)
+        })
+        .transpose()?;
+    let drogue = match s.hose {
+        None => Drogue::Fixed(FixedDrogue::default()),
+        Some(params) => {
+            let steady_air = |p: &Vector3<f64>| {
+                let w = wake
+                    .as_ref()
+                    .map_or_else(Vector3::zeros, |w| w.velocity_tanker_mps(p));
+                Vector3::new(-s.tanker.speed_mps, 0.0, 0.0) + w
+            };
+            Drogue::Hose(Box::new(HoseDrogue::steady_trail(params, &steady_air)?))
+        }
+    };
+    let camera = match s.camera {
+        CameraChoice::Ideal(p) => Camera::Ideal(PinholeCamera::new(p)),
+        CameraChoice::Led(p) => {
+            Camera::Led(Box::new(LedCamera::new(p, s.seed ^ CAMERA_SEED_SALT)?))
+        }
+    };
+    Ok(World {
+        tanker: s.tanker,
+        drogue,
+        camera,
+        mount: Mount {
+            position_body_m: s.camera_body_m,
+            pitch_down_rad: trim.theta_rad,
+        },
+        gusts,
+        wake,
+        bow_wave: s.bow_wave,
+    })
 }
 
 /// The receiver at trim, placed so that the drogue minus probe tip is `offset` at t = 0.
@@ -182,22 +318,23 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
     }
     let model = F16::new(s.xcg)?;
     let trim = model.trim_straight_level(s.tanker.speed_mps, s.tanker.altitude_m)?;
-    let drogue = FixedDrogue::default();
-    let mut x = initial_state(s, &trim, &drogue.centre_tanker_m(0.0));
+    let (ts, dt) = (
+        CONTROL_PERIOD_S,
+        CONTROL_PERIOD_S / f64::from(s.plant_substeps),
+    );
+    let mut world = build_world(s, &trim, dt)?;
+    let mut x = initial_state(s, &trim, &world.drogue_centre_tanker_m());
     let nav = PerfectNav::new(
         &trim,
         point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0),
     );
-    let mut camera = PinholeCamera::new(s.camera, s.camera_body_m, trim.theta_rad);
-    let (ts, wind) = (CONTROL_PERIOD_S, Wind::default());
-    let dt = ts / f64::from(s.plant_substeps);
     let steps = (s.duration_s / ts).ceil() as usize;
 
     let tip = |x: &ReceiverState, t: f64| point_in_tanker_m(&s.tanker, x, &s.probe_tip_body_m, t);
     let mut crossing = PlaneCrossing::default();
     crossing.observe(
         0.0,
-        drogue.centre_tanker_m(0.0) - tip(&x, 0.0),
+        world.drogue_centre_tanker_m() - tip(&x, 0.0),
         CAPTURE_RADIUS_M,
     );
     let mut contact: Option<Contact> = None;
@@ -208,8 +345,7 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
 
     for k in 0..steps {
         let t = k as f64 * ts;
-        let drogue_t = drogue.centre_tanker_m(t);
-        let measurement = camera.capture(&s.tanker, &x, &drogue_t, t);
+        let measurement = world.capture(&x, t);
         let engaged_before = samples
             .last()
             .is_some_and(|p: &Sample| p.output.mode != Mode::Standby);
@@ -224,12 +360,14 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
             },
         };
         let output = fc.step(&input);
-        let tip_now = tip(&x, t);
+        let (tip_now, drogue_now) = (tip(&x, t), world.drogue_centre_tanker_m());
         samples.push(Sample {
             time_s: t,
             measurement,
             output,
-            drogue_from_tip_m: drogue_t - tip_now,
+            drogue_tanker_m: drogue_now,
+            tip_tanker_m: tip_now,
+            drogue_from_tip_m: drogue_now - tip_now,
             tip_velocity_mps: if k == 0 {
                 Vector3::zeros()
             } else {
@@ -253,12 +391,15 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
             aileron_rad: f64::from(output.command.aileron_rad),
             rudder_rad: f64::from(output.command.rudder_rad),
         };
-        for i in 1..=s.plant_substeps {
-            model.step_rk4(&mut x, &cmd, &wind, dt);
+        for i in 0..s.plant_substeps {
             let ti = t + f64::from(i) * dt;
+            let wind = world.receiver_wind(&x, ti);
+            world.step(dt, &x, ti);
+            model.step_rk4(&mut x, &cmd, &wind, dt);
+            let t_end = ti + dt;
             if let Some(c) = crossing.observe(
-                ti,
-                drogue.centre_tanker_m(ti) - tip(&x, ti),
+                t_end,
+                world.drogue_centre_tanker_m() - tip(&x, t_end),
                 CAPTURE_RADIUS_M,
             ) {
                 contact = Some(c);

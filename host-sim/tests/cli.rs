@@ -160,5 +160,5 @@ fn bad_arguments_are_named_errors() {
     assert!(stderr.contains("invalid condition"), "{stderr}");
     let (ok, _, stderr) = host_sim(&["dock", "--ibvs-gains", "0,2,0.3,3,1", "--no-files"]);
     assert!(!ok);
-    assert!(stderr.contains("ibvs.k1_mps"), "{stderr}");
+    assert!(stderr.contains("k1"), "{stderr}");
 }

@@ -36,7 +36,7 @@ pub const STARTS_M: [[f64; 3]; 11] = [
 pub fn dock(cfg: ControllerConfig, start: [f64; 3]) -> Run {
     let scenario = Scenario {
         start_offset_m: Vector3::from(start),
-        ..Scenario::default()
+        ..Scenario::ideal()
     };
     let mut c = Controller::new(cfg).expect("valid config");
     sim::run(&scenario, &mut c).expect("scenario runs")

@@ -1,5 +1,6 @@
-//! The camera at the probe tip: an ideal pinhole in this slice (no noise, no latency, no
-//! drops), with a field of view and a minimum range inside which it cannot see the drogue.
+//! The ideal camera: a pinhole with no noise, no latency and no drops, a field of view and a
+//! minimum range inside which it cannot see the drogue. The realistic one is
+//! [`super::led_camera`].
 //!
 //! Invariant: the measurement is the drogue centre in normalised image coordinates
 //! `(x_c / z_c, y_c / z_c)` and its depth `z_c`, camera axes x right, y down, z boresight;
@@ -7,10 +8,9 @@
 //! or closer than the minimum range.
 
 use ibvs_core::measurement::CameraMeasurement;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
-use super::{Tanker, ned_from_body};
-use crate::receiver::ReceiverState;
+use super::led_camera::CameraPose;
 
 /// Camera intrinsics and visibility limits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,78 +38,40 @@ impl Default for CameraParams {
     }
 }
 
-/// The camera as mounted on the receiver.
+/// The ideal camera. Its pose comes from the caller ([`super::World::camera_pose`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PinholeCamera {
     /// Intrinsics and limits.
     pub params: CameraParams,
-    /// True optical centre relative to the CG, body axes, m.
-    pub position_body_m: Vector3<f64>,
-    /// True boresight pitch-down from the body x axis, rad.
-    pub pitch_down_rad: f64,
     seq: u32,
 }
 
 impl PinholeCamera {
-    /// A camera at `position_body_m`, boresight pitched down by `pitch_down_rad`.
-    pub fn new(params: CameraParams, position_body_m: Vector3<f64>, pitch_down_rad: f64) -> Self {
-        Self {
-            params,
-            position_body_m,
-            pitch_down_rad,
-            seq: 0,
-        }
-    }
-
-    /// Rotation from camera axes to body axes.
-    fn body_from_camera(&self) -> Matrix3<f64> {
-        let (s, c) = self.pitch_down_rad.sin_cos();
-        Matrix3::new(0.0, -s, c, 1.0, 0.0, 0.0, 0.0, c, s)
-    }
-
-    /// The drogue centre in camera axes, m.
-    pub fn drogue_in_camera_m(
-        &self,
-        tanker: &Tanker,
-        x: &ReceiverState,
-        drogue_tanker_m: &Vector3<f64>,
-        t_s: f64,
-    ) -> Vector3<f64> {
-        let cam_tanker = super::point_in_tanker_m(tanker, x, &self.position_body_m, t_s);
-        let body = ned_from_body(x).inverse() * (drogue_tanker_m - cam_tanker);
-        self.body_from_camera().transpose() * body
+    /// A camera with `params`; its first frame is number 1.
+    pub fn new(params: CameraParams) -> Self {
+        Self { params, seq: 0 }
     }
 
     /// Takes one frame (the sequence number advances every call).
     pub fn capture(
         &mut self,
-        tanker: &Tanker,
-        x: &ReceiverState,
+        pose: &CameraPose,
         drogue_tanker_m: &Vector3<f64>,
-        t_s: f64,
     ) -> CameraMeasurement {
         self.seq = self.seq.wrapping_add(1);
-        let p = self.drogue_in_camera_m(tanker, x, drogue_tanker_m, t_s);
+        let p = pose
+            .tanker_from_camera
+            .inverse_transform_vector(&(drogue_tanker_m - pose.position_tanker_m));
         let (ix, iy) = (p.x / p.z, p.y / p.z);
         let half_x = self.params.width_px / 2.0 / self.params.focal_px;
         let half_y = self.params.height_px / 2.0 / self.params.focal_px;
         let visible = p.z >= self.params.min_range_m && ix.abs() <= half_x && iy.abs() <= half_y;
-        if visible {
-            CameraMeasurement {
-                seq: self.seq,
-                tracked: true,
-                image_x: ix as f32,
-                image_y: iy as f32,
-                depth_m: p.z as f32,
-            }
-        } else {
-            CameraMeasurement {
-                seq: self.seq,
-                tracked: false,
-                image_x: 0.0,
-                image_y: 0.0,
-                depth_m: 0.0,
-            }
+        CameraMeasurement {
+            seq: self.seq,
+            tracked: visible,
+            image_x: if visible { ix as f32 } else { 0.0 },
+            image_y: if visible { iy as f32 } else { 0.0 },
+            depth_m: if visible { p.z as f32 } else { 0.0 },
         }
     }
 }
