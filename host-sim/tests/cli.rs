@@ -162,3 +162,88 @@ fn bad_arguments_are_named_errors() {
     assert!(!ok);
     assert!(stderr.contains("k1"), "{stderr}");
 }
+
+#[test]
+fn scenarios_are_listed_shown_and_loaded_from_files() {
+    let (ok, list, _) = host_sim(&["scenarios"]);
+    assert!(ok);
+    for name in [
+        "calm",
+        "paper-level1",
+        "paper-level2",
+        "paper-bow-wave",
+        "paper-mount-error-ibvs",
+        "paper-mount-error-pbvs",
+    ] {
+        assert!(
+            list.lines().any(|l| l.starts_with(name)),
+            "{name} missing:\n{list}"
+        );
+    }
+    let (ok, toml_text, stderr) = host_sim(&["scenario", "show", "paper-bow-wave"]);
+    assert!(ok, "{stderr}");
+    assert!(
+        toml_text.contains("[bow_wave]") && toml_text.contains("enabled = true"),
+        "{toml_text}"
+    );
+    // What `scenario show` prints is a scenario file: fly it, with one value edited.
+    let dir = std::env::temp_dir().join(format!("host-sim-scenario-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("mine.toml");
+    std::fs::write(&file, toml_text.replace("seed = 1", "seed = 4")).unwrap();
+    let v = json(&[
+        "dock",
+        "--scenario",
+        file.to_str().unwrap(),
+        "--json",
+        "--no-files",
+    ]);
+    assert!(v["outcome"].is_string(), "{v}");
+    let typo = dir.join("typo.toml");
+    std::fs::write(&typo, "[camera]\npixel_noise = 1.0\n").unwrap();
+    let (ok, _, stderr) = host_sim(&["dock", "--scenario", typo.to_str().unwrap(), "--no-files"]);
+    assert!(!ok);
+    assert!(stderr.contains("pixel_noise"), "{stderr}");
+    let (ok, _, stderr) = host_sim(&["dock", "--scenario", "no-such-preset", "--no-files"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("paper-level1"),
+        "the error lists the presets: {stderr}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn paper_writes_figures_data_and_the_summary_table() {
+    let dir = std::env::temp_dir().join(format!("host-sim-paper-{}", std::process::id()));
+    let (ok, table, stderr) = host_sim(&["paper", "--out", dir.to_str().unwrap(), "--seeds", "1"]);
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        table
+            .lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| experiment"))
+            .count(),
+        5,
+        "{table}"
+    );
+    for (exp, preset) in [
+        ("level1", "paper-level1"),
+        ("level2", "paper-level2"),
+        ("bow-wave", "paper-bow-wave"),
+        ("mount-error", "paper-mount-error-pbvs"),
+    ] {
+        for f in [
+            "image_error.png",
+            "paths.png",
+            &format!("{preset}-seed1.csv"),
+        ] {
+            let path = dir.join(exp).join(f);
+            assert!(path.exists(), "{} missing", path.display());
+        }
+    }
+    assert_eq!(
+        std::fs::read_to_string(dir.join("summary.md")).unwrap(),
+        table
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
