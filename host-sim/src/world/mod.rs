@@ -114,6 +114,16 @@ pub const BOW_WAVE_NOSE_FROM_CG_M: [f64; 3] = [3.75, 0.0, -0.86];
 const RECEIVER_SPAN_M: f64 = 9.45;
 const RECEIVER_LENGTH_M: f64 = 15.0;
 
+/// Gust plus wake at a tanker-frame point, tanker axes, m/s (zero for what is off).
+fn disturbance(
+    gusts: Option<&GustField>,
+    wake: Option<&TankerWake>,
+    p: &Vector3<f64>,
+) -> Vector3<f64> {
+    let gust = gusts.map_or_else(Vector3::zeros, |g| g.gust_at_tanker_mps(p.x));
+    gust + wake.map_or_else(Vector3::zeros, |w| w.velocity_tanker_mps(p))
+}
+
 /// Everything around the receiver during one run.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -136,20 +146,7 @@ pub struct World {
 impl World {
     /// Air-mass velocity at a tanker-frame point now (gust plus wake), tanker axes, m/s.
     pub fn disturbance_tanker_mps(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        let gust = self
-            .gusts
-            .as_ref()
-            .map_or_else(Vector3::zeros, |g| g.gust_at_tanker_mps(p.x));
-        let wake = self
-            .wake
-            .as_ref()
-            .map_or_else(Vector3::zeros, |w| w.velocity_tanker_mps(p));
-        gust + wake
-    }
-
-    /// Air velocity relative to the tanker frame at a point: free stream plus disturbance.
-    pub fn air_velocity_tanker_mps(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        Vector3::new(-self.tanker.speed_mps, 0.0, 0.0) + self.disturbance_tanker_mps(p)
+        disturbance(self.gusts.as_ref(), self.wake.as_ref(), p)
     }
 
     /// The wind the receiver flies in: the disturbance at its CG, and the wake's rotation.
@@ -198,17 +195,12 @@ impl World {
             g.advance();
         }
         if let Drogue::Hose(h) = &mut self.drogue {
-            let air = |p: &Vector3<f64>| {
-                let gust = self
-                    .gusts
-                    .as_ref()
-                    .map_or_else(Vector3::zeros, |g| g.gust_at_tanker_mps(p.x));
-                let wake = self
-                    .wake
-                    .as_ref()
-                    .map_or_else(Vector3::zeros, |w| w.velocity_tanker_mps(p));
-                Vector3::new(-self.tanker.speed_mps, 0.0, 0.0) + gust + wake
-            };
+            let (gusts, wake, free_stream) = (
+                self.gusts.as_ref(),
+                self.wake.as_ref(),
+                Vector3::new(-self.tanker.speed_mps, 0.0, 0.0),
+            );
+            let air = |p: &Vector3<f64>| free_stream + disturbance(gusts, wake, p);
             h.step(dt_s, &air, &force);
         }
     }
