@@ -1,90 +1,566 @@
-//! Wire messages between the flight computer and its peer (simulator or avionics bus).
+//! The serial link protocol between the flight computer and its peer (the simulator over
+//! processor-in-the-loop, or the avionics): messages, frame format, encoder and a streaming
+//! decoder. Both ends use this module, so there is one definition of the bytes.
 //!
-//! Each message is serialised with `postcard` and framed with COBS, so a frame is a run of
-//! non-zero bytes ended by one `0x00`: a receiver that loses sync resynchronises at the next
-//! zero. [`Uplink`] goes to the controller, [`Downlink`] comes from it.
+//! Place in the data flow: measurement frames ([`Uplink`]: the step's [`ControllerInput`] and
+//! a link sequence number) come in; the firmware steps the controller and sends a command
+//! frame ([`Downlink`]: the [`ControllerOutput`], the echo of the measurement frame's sequence
+//! number, the controller's [`Counters`], the link's own [`LinkCounters`], status bits and the
+//! [`Cost`] of the step).
 //!
-//! Invariant: every message fits in [`MAX_FRAME_LEN`] bytes (tested); decoding never panics
-//! and names what went wrong ([`WireError`]).
+//! # Frame layout
+//!
+//! ```text
+//! payload  = version (u8, PROTOCOL_VERSION) | kind (u8: 'M' = 0x4D measurement, 'C' = 0x43 command)
+//!          | body (postcard: Uplink or Downlink, at most MAX_BODY_LEN = 248 bytes)
+//!          | CRC-32C of version..body (Castagnoli, CRC_32_ISCSI: poly 0x1EDC6F41 reflected,
+//!            init and xorout 0xFFFFFFFF), 4 bytes little-endian
+//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 256 bytes
+//! ```
+//!
+//! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
+//! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
+//! A measurement frame is 73 to 81 bytes on the wire, a command frame 93 to 251 (measured by
+//! the tests with the largest values of every field).
+//!
+//! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
+//! lost sync (garbage, a cut frame) resynchronises at the next zero. An empty frame (two zeros
+//! in a row) is idle fill, not an error; a sender may send a zero before a frame to end any
+//! garbage the receiver holds.
+//!
+//! # Invariants
+//! - Every message fits: the largest [`Downlink`] (every field at its longest encoding) is
+//!   under [`MAX_BODY_LEN`] (tested).
+//! - [`FrameDecoder::feed`] takes any byte sequence, one byte at a time, in a fixed buffer,
+//!   never panics and never allocates (property-tested); every frame it rejects is named by a
+//!   [`WireError`], which [`LinkCounters::count`] maps to exactly one counter.
+//! - A frame with any single byte changed (other than into a zero) is rejected: either its
+//!   COBS structure or the CRC catches it (property-tested).
 
+use crc::{CRC_32_ISCSI, Crc};
 use serde::{Deserialize, Serialize};
 
 use crate::controller::{ControllerInput, ControllerOutput, Counters};
+use crate::measurement::{MeasurementError, SequenceCheck};
 
-/// Protocol version carried in every message; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// Protocol version carried in every frame's first byte; bumped on any layout change.
+pub const PROTOCOL_VERSION: u8 = 2;
 
-/// Largest encoded frame, bytes, including the COBS overhead and the terminating zero.
-pub const MAX_FRAME_LEN: usize = 160;
+/// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
+pub const MAX_FRAME_LEN: usize = 256;
 
-/// Message to the controller: one step's input.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Largest payload (header, body and CRC) before COBS encoding, bytes. COBS adds exactly one
+/// byte to a payload of at most 254 bytes, so such a frame is at most [`MAX_FRAME_LEN`].
+pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 2;
+
+/// Header bytes before the body: version and kind.
+pub const HEADER_LEN: usize = 2;
+
+/// CRC bytes after the body.
+pub const CRC_LEN: usize = 4;
+
+/// Largest postcard body, bytes.
+pub const MAX_BODY_LEN: usize = MAX_PAYLOAD_LEN - HEADER_LEN - CRC_LEN;
+
+/// COBS bytes a frame may have before its terminating zero.
+const MAX_ENCODED_LEN: usize = MAX_FRAME_LEN - 1;
+
+/// The frame check: CRC-32C (Castagnoli), table-driven (1 KiB table in flash).
+pub const CRC32C: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
+
+/// What a frame carries (its second byte).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameKind {
+    /// [`Uplink`]: peer to flight computer.
+    Measurement,
+    /// [`Downlink`]: flight computer to peer.
+    Command,
+}
+
+impl FrameKind {
+    /// The kind byte on the wire.
+    pub const fn byte(self) -> u8 {
+        match self {
+            Self::Measurement => b'M',
+            Self::Command => b'C',
+        }
+    }
+
+    /// The kind of a kind byte, if it is one.
+    pub const fn from_byte(b: u8) -> Option<Self> {
+        match b {
+            b'M' => Some(Self::Measurement),
+            b'C' => Some(Self::Command),
+            _ => None,
+        }
+    }
+}
+
+/// Measurement frame: one step's input for the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Uplink {
-    /// [`PROTOCOL_VERSION`] of the sender.
-    pub version: u8,
+    /// Link sequence number of this frame, +1 per new frame (wraps). Independent of the
+    /// camera's frame counter inside `input`: a retransmission repeats this number.
+    pub seq: u32,
     /// The step's input.
     pub input: ControllerInput,
 }
 
-/// Message from the controller: one step's output and the running counters.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Link status bits of one command frame ([`Downlink::link_status`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkStatus(pub u8);
+
+impl LinkStatus {
+    /// Sent once after reset, before any step: the link is up. Output is the standby trim.
+    pub const BOOT: u8 = 1 << 0;
+    /// Answer to a repeated measurement frame: the previous answer again, no new step.
+    pub const RETRANSMIT: u8 = 1 << 1;
+    /// The firmware runs the free-running fixed-rate schedule (else lockstep).
+    pub const FREE_RUNNING: u8 = 1 << 2;
+    /// Free-running: no new measurement frame arrived since the previous step; this step
+    /// reused the previous input (the core rejects its camera frame as repeated).
+    pub const INPUT_HELD: u8 = 1 << 3;
+    /// No current measurement: in the free-running schedule no new measurement frame for
+    /// longer than the link timeout (the step ran with the navigation marked invalid), or
+    /// none received yet (boot frame, standby trim without a step).
+    pub const STALE: u8 = 1 << 4;
+    /// Sent by the panic handler: commands are trim, the controller is stopped.
+    pub const PANIC: u8 = 1 << 5;
+    /// A panic record from before the last reset was found at boot.
+    pub const PREVIOUS_PANIC: u8 = 1 << 6;
+
+    /// True when every bit of `mask` is set.
+    pub fn contains(self, mask: u8) -> bool {
+        self.0 & mask == mask
+    }
+}
+
+/// Unit of the [`Cost`] figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CostUnit {
+    /// No counter on this platform (a host build): the figures are zero.
+    #[default]
+    Unavailable,
+    /// Executed instructions (QEMU with `-icount shift=0`: TIM2 counts one per instruction).
+    Instructions,
+    /// CPU clock cycles (the DWT cycle counter on hardware).
+    Cycles,
+}
+
+/// What the flight computer spent, in [`Cost::unit`], each figure read from the same counter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Cost {
+    /// Unit of the figures below.
+    pub unit: CostUnit,
+    /// The controller step of this frame (`Controller::step` only).
+    pub step: u32,
+    /// Decoding the measurement frame this step used: every byte through the streaming
+    /// decoder and the deserialisation, summed over the bytes (each byte's figure includes
+    /// the counter read, one instruction). 0 when the step reused an earlier frame.
+    pub decode: u32,
+    /// Encoding the previous command frame (this one's is not known until it is encoded).
+    pub encode_prev: u32,
+}
+
+/// Running counts of the link's receive side and schedule, since reset (saturating).
+/// Nothing received is dropped without a count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkCounters {
+    /// Measurement frames accepted (valid, new sequence number).
+    pub frames_ok: u32,
+    /// Frames with a COBS error, shorter than header and CRC, or a CRC mismatch.
+    pub corrupt: u32,
+    /// Frames longer than [`MAX_FRAME_LEN`] (discarded up to the next zero).
+    pub oversize: u32,
+    /// Frames with a good CRC whose body is not a valid message (or has trailing bytes).
+    pub malformed: u32,
+    /// Frames of another protocol version or of the wrong kind.
+    pub wrong_version: u32,
+    /// Measurement frames never received: the sum of the sequence gaps.
+    pub seq_gap: u32,
+    /// Measurement frames received again (same sequence number as the last one).
+    pub seq_repeat: u32,
+    /// Measurement frames older than the last one (discarded).
+    pub seq_old: u32,
+    /// Free-running: times the link went stale (no new frame for longer than the timeout).
+    pub timeouts: u32,
+    /// Free-running: steps run on a stale link.
+    pub stale_steps: u32,
+    /// Free-running: steps that reused the previous input (no new frame that period).
+    pub held_steps: u32,
+    /// Free-running: control periods that passed without their step (deadline missed).
+    pub deadline_missed: u32,
+    /// Receiver hardware errors (overrun, noise, framing) and receive-buffer overflows.
+    pub rx_errors: u32,
+    /// Command frames that could not be encoded or written (never expected; not sent).
+    pub tx_errors: u32,
+}
+
+fn bump(c: &mut u32, by: u32) {
+    *c = c.saturating_add(by);
+}
+
+impl LinkCounters {
+    /// Counts one rejected frame under its counter.
+    pub fn count(&mut self, e: WireError) {
+        let c = match e {
+            WireError::Cobs | WireError::TooShort | WireError::Crc => &mut self.corrupt,
+            WireError::Oversize => &mut self.oversize,
+            WireError::Malformed => &mut self.malformed,
+            WireError::VersionMismatch | WireError::WrongKind => &mut self.wrong_version,
+            WireError::BufferTooSmall | WireError::TooLarge => &mut self.tx_errors,
+        };
+        bump(c, 1);
+    }
+
+    /// Counts a measurement frame's sequence check (from a
+    /// [`crate::measurement::SequenceTracker`] of link sequence numbers); true when the frame
+    /// is new and is to be used.
+    pub fn count_sequence(&mut self, check: SequenceCheck) -> bool {
+        match check {
+            SequenceCheck::New { dropped } => {
+                bump(&mut self.seq_gap, dropped);
+                bump(&mut self.frames_ok, 1);
+                true
+            }
+            SequenceCheck::Rejected(MeasurementError::Repeated) => {
+                bump(&mut self.seq_repeat, 1);
+                false
+            }
+            SequenceCheck::Rejected(_) => {
+                bump(&mut self.seq_old, 1);
+                false
+            }
+        }
+    }
+
+    /// Frames rejected before their sequence number was read (every error counter of the
+    /// receive side: corrupt, oversize, malformed, wrong version).
+    pub fn rejected_frames(&self) -> u32 {
+        self.corrupt
+            .saturating_add(self.oversize)
+            .saturating_add(self.malformed)
+            .saturating_add(self.wrong_version)
+    }
+}
+
+/// Command frame: one step's output and everything a ground engineer needs to debug it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Downlink {
-    /// [`PROTOCOL_VERSION`] of the sender.
-    pub version: u8,
-    /// The step's output.
+    /// Command frame counter, 0 for the boot frame, +1 per frame sent (wraps).
+    pub seq: u32,
+    /// [`Uplink::seq`] of the measurement frame the step used; `None` before the first.
+    pub echo_seq: Option<u32>,
+    /// Link status bits ([`LinkStatus`] constants).
+    pub link_status: LinkStatus,
+    /// The step's output: commands, mode, breakaway reason, status bits, errors.
     pub output: ControllerOutput,
-    /// Counters after the step.
+    /// The controller's counters after the step.
     pub counters: Counters,
+    /// The link's counters, including every error since the previous frame.
+    pub link: LinkCounters,
+    /// What the step cost.
+    pub cost: Cost,
 }
 
 /// Why a frame could not be encoded or decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WireError {
-    /// The output buffer is too small for the frame.
+    /// Encoder: the output buffer is too small for the frame.
     BufferTooSmall,
-    /// The frame is not valid COBS or does not deserialise into the message.
-    Malformed,
-    /// The frame decoded but carries another protocol version.
+    /// Encoder: the message body is longer than [`MAX_BODY_LEN`].
+    TooLarge,
+    /// A COBS block runs past the end of the frame.
+    Cobs,
+    /// More than [`MAX_FRAME_LEN`] bytes before the terminating zero.
+    Oversize,
+    /// The payload is shorter than header and CRC.
+    TooShort,
+    /// The CRC does not match.
+    Crc,
+    /// Another protocol version.
     VersionMismatch,
+    /// Not the kind of frame expected (or an unknown kind byte).
+    WrongKind,
+    /// The body does not deserialise into the message, or has bytes left over.
+    Malformed,
 }
 
-/// Encodes `msg` as one COBS frame into `buf`; returns the used part (ending in `0x00`).
-pub fn encode<'a, T: Serialize>(msg: &T, buf: &'a mut [u8]) -> Result<&'a mut [u8], WireError> {
-    postcard::to_slice_cobs(msg, buf).map_err(|_| WireError::BufferTooSmall)
-}
-
-/// Decodes one COBS frame in place and checks its protocol version.
-fn decode<'de, T: Deserialize<'de>>(
-    frame: &'de mut [u8],
-    version: fn(&T) -> u8,
-) -> Result<T, WireError> {
-    let m: T = postcard::from_bytes_cobs(frame).map_err(|_| WireError::Malformed)?;
-    if version(&m) == PROTOCOL_VERSION {
-        Ok(m)
-    } else {
-        Err(WireError::VersionMismatch)
+impl core::fmt::Display for WireError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::BufferTooSmall => "output buffer too small",
+            Self::TooLarge => "message body too large",
+            Self::Cobs => "COBS block runs past the frame end",
+            Self::Oversize => "frame longer than MAX_FRAME_LEN",
+            Self::TooShort => "frame shorter than header and CRC",
+            Self::Crc => "CRC mismatch",
+            Self::VersionMismatch => "protocol version mismatch",
+            Self::WrongKind => "wrong frame kind",
+            Self::Malformed => "body does not deserialise",
+        })
     }
 }
 
-/// Decodes one COBS uplink frame (with or without its terminating zero) in place.
-pub fn decode_uplink(frame: &mut [u8]) -> Result<Uplink, WireError> {
-    decode(frame, |m: &Uplink| m.version)
+/// COBS-encodes `src` into `dst`; returns the encoded length (no terminating zero). Minimal
+/// encoding: `src.len() + 1` bytes for up to 254 bytes.
+fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Result<usize, WireError> {
+    let mut put = |i: usize, b: u8| -> Result<(), WireError> {
+        *dst.get_mut(i).ok_or(WireError::BufferTooSmall)? = b;
+        Ok(())
+    };
+    let (mut code_at, mut out, mut code) = (0usize, 1usize, 1u8);
+    for (i, &b) in src.iter().enumerate() {
+        if b != 0 {
+            put(out, b)?;
+            out += 1;
+            code += 1;
+        }
+        if b == 0 || (code == 0xFF && i + 1 < src.len()) {
+            put(code_at, code)?;
+            code_at = out;
+            out += 1;
+            code = 1;
+        }
+    }
+    put(code_at, code)?;
+    Ok(out)
 }
 
-/// Decodes one COBS downlink frame in place.
-pub fn decode_downlink(frame: &mut [u8]) -> Result<Downlink, WireError> {
-    decode(frame, |m: &Downlink| m.version)
+/// Encodes `msg` as a `kind` frame (COBS, ending in its zero) into `out`; returns its length.
+fn encode_frame<T: Serialize>(
+    kind: FrameKind,
+    msg: &T,
+    out: &mut [u8],
+) -> Result<usize, WireError> {
+    let mut payload = [0u8; MAX_PAYLOAD_LEN];
+    let (header, rest) = payload.split_at_mut(HEADER_LEN);
+    header.copy_from_slice(&[PROTOCOL_VERSION, kind.byte()]);
+    let body_len = postcard::to_slice(msg, &mut rest[..MAX_BODY_LEN])
+        .map_err(|_| WireError::TooLarge)?
+        .len();
+    let data_len = HEADER_LEN + body_len;
+    let crc = CRC32C.checksum(&payload[..data_len]);
+    payload[data_len..data_len + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
+    let n = cobs_encode(&payload[..data_len + CRC_LEN], out)?;
+    *out.get_mut(n).ok_or(WireError::BufferTooSmall)? = 0;
+    Ok(n + 1)
+}
+
+/// Encodes a measurement frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
+/// the frame, ending in its `0x00`.
+pub fn encode_uplink<'a>(msg: &Uplink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
+    let n = encode_frame(FrameKind::Measurement, msg, out)?;
+    Ok(&out[..n])
+}
+
+/// Encodes a command frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns the
+/// frame, ending in its `0x00`.
+pub fn encode_downlink<'a>(msg: &Downlink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
+    let n = encode_frame(FrameKind::Command, msg, out)?;
+    Ok(&out[..n])
+}
+
+/// A frame that passed COBS, length, CRC and version checks: its kind and postcard body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Payload<'a> {
+    /// The frame's kind byte.
+    pub kind: FrameKind,
+    /// The postcard body.
+    pub body: &'a [u8],
+}
+
+impl Payload<'_> {
+    fn parse<'de, T: Deserialize<'de>>(
+        body: &'de [u8],
+        kind: FrameKind,
+        want: FrameKind,
+    ) -> Result<T, WireError> {
+        if kind != want {
+            return Err(WireError::WrongKind);
+        }
+        match postcard::take_from_bytes(body) {
+            Ok((m, [])) => Ok(m),
+            _ => Err(WireError::Malformed),
+        }
+    }
+
+    /// The measurement message, or why not.
+    pub fn uplink(&self) -> Result<Uplink, WireError> {
+        Self::parse(self.body, self.kind, FrameKind::Measurement)
+    }
+
+    /// The command message, or why not.
+    pub fn downlink(&self) -> Result<Downlink, WireError> {
+        Self::parse(self.body, self.kind, FrameKind::Command)
+    }
+}
+
+/// Checks a decoded payload: length, CRC, version, kind.
+fn check_payload(p: &[u8]) -> Result<Payload<'_>, WireError> {
+    if p.len() < HEADER_LEN + CRC_LEN {
+        return Err(WireError::TooShort);
+    }
+    let (data, crc) = p.split_at(p.len() - CRC_LEN);
+    let mut sent = [0u8; CRC_LEN];
+    sent.copy_from_slice(crc);
+    if CRC32C.checksum(data) != u32::from_le_bytes(sent) {
+        return Err(WireError::Crc);
+    }
+    let (header, body) = data.split_at(HEADER_LEN);
+    if header[0] != PROTOCOL_VERSION {
+        return Err(WireError::VersionMismatch);
+    }
+    let kind = FrameKind::from_byte(header[1]).ok_or(WireError::WrongKind)?;
+    Ok(Payload { kind, body })
+}
+
+/// Streaming frame decoder: feed received bytes one at a time; a zero ends a frame and
+/// yields its payload or the reason it was rejected.
+///
+/// COBS is decoded on the fly into a fixed [`MAX_PAYLOAD_LEN`]-byte buffer (no second pass,
+/// no allocation). A frame that grows past [`MAX_FRAME_LEN`] is discarded up to the next
+/// zero and reported once, as [`WireError::Oversize`], when that zero arrives.
+#[derive(Debug, Clone)]
+pub struct FrameDecoder {
+    buf: [u8; MAX_PAYLOAD_LEN],
+    /// Decoded bytes so far.
+    len: usize,
+    /// Encoded bytes of this frame so far.
+    encoded: usize,
+    /// Data bytes left in the current COBS block; 0: the next byte is a code byte.
+    remaining: u8,
+    /// The current block ends in an implicit zero if another block follows.
+    zero_pending: bool,
+    /// The frame has already failed; the rest up to the next zero is skipped.
+    discard: Option<WireError>,
+}
+
+impl Default for FrameDecoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameDecoder {
+    /// An idle decoder (at a frame boundary).
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_PAYLOAD_LEN],
+            len: 0,
+            encoded: 0,
+            remaining: 0,
+            zero_pending: false,
+            discard: None,
+        }
+    }
+
+    /// True between frames (nothing of a frame received yet).
+    pub fn is_idle(&self) -> bool {
+        self.encoded == 0 && self.discard.is_none()
+    }
+
+    fn push(&mut self, b: u8) {
+        match self.buf.get_mut(self.len) {
+            Some(slot) => {
+                *slot = b;
+                self.len += 1;
+            }
+            // Unreachable while MAX_ENCODED_LEN - 1 <= MAX_PAYLOAD_LEN (decoded < encoded),
+            // but handled: the frame is too long.
+            None => self.discard = Some(WireError::Oversize),
+        }
+    }
+
+    /// Feeds one byte. Returns `None` inside a frame and for empty frames; at a frame's
+    /// terminating zero, its checked payload or the reason it was rejected.
+    pub fn feed(&mut self, byte: u8) -> Option<Result<Payload<'_>, WireError>> {
+        if byte == 0 {
+            let (len, encoded, remaining, discard) =
+                (self.len, self.encoded, self.remaining, self.discard);
+            self.len = 0;
+            self.encoded = 0;
+            self.remaining = 0;
+            self.zero_pending = false;
+            self.discard = None;
+            return match discard {
+                Some(e) => Some(Err(e)),
+                None if encoded == 0 => None,
+                None if remaining != 0 => Some(Err(WireError::Cobs)),
+                None => Some(check_payload(&self.buf[..len])),
+            };
+        }
+        if self.discard.is_some() {
+            return None;
+        }
+        self.encoded += 1;
+        if self.encoded > MAX_ENCODED_LEN {
+            self.discard = Some(WireError::Oversize);
+            return None;
+        }
+        if self.remaining == 0 {
+            if self.zero_pending {
+                self.push(0);
+            }
+            self.remaining = byte - 1;
+            self.zero_pending = byte != 0xFF;
+        } else {
+            self.push(byte);
+            self.remaining -= 1;
+        }
+        None
+    }
+}
+
+/// Decodes exactly one frame: `frame`'s bytes up to its first zero (a missing terminating
+/// zero is implied). An empty frame is [`WireError::TooShort`].
+fn decode_one<T>(
+    frame: &[u8],
+    parse: impl Fn(&Payload<'_>) -> Result<T, WireError>,
+) -> Result<T, WireError> {
+    let mut d = FrameDecoder::new();
+    for &b in frame.iter().chain(core::iter::once(&0)) {
+        if let Some(r) = d.feed(b) {
+            return r.and_then(|p| parse(&p));
+        }
+        if b == 0 {
+            break;
+        }
+    }
+    Err(WireError::TooShort)
+}
+
+/// Decodes one measurement frame (with or without its terminating zero).
+pub fn decode_uplink(frame: &[u8]) -> Result<Uplink, WireError> {
+    decode_one(frame, |p| p.uplink())
+}
+
+/// Decodes one command frame (with or without its terminating zero).
+pub fn decode_downlink(frame: &[u8]) -> Result<Downlink, WireError> {
+    decode_one(frame, |p| p.downlink())
 }
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+    use std::vec::Vec;
+
     use super::*;
+    use crate::actuator::ActuatorCommand;
     use crate::controller::StatusFlags;
+    use crate::frames::{TargetEstimate, VelocityRe};
     use crate::measurement::{CameraMeasurement, MeasurementError};
     use crate::mode::{BreakawayReason, Mode, ModeRequest};
+    use crate::nav::{NavError, NavSample};
+    use proptest::prelude::*;
 
     fn uplink() -> Uplink {
         let mut input = ControllerInput {
@@ -102,75 +578,347 @@ mod tests {
         input.nav.lon.v_mps = f32::NAN; // must survive the trip bit for bit
         input.nav.lat.r_radps = -1e-30;
         Uplink {
-            version: PROTOCOL_VERSION,
+            seq: u32::MAX,
             input,
         }
     }
 
-    fn downlink() -> Downlink {
+    /// Every field at its longest postcard encoding.
+    fn largest_downlink() -> Downlink {
+        let m = u32::MAX;
         let counters = Counters {
-            steps: u32::MAX,
-            frames_dropped: 77_777,
-            ..Default::default()
+            steps: m,
+            frames_valid: m,
+            frames_dropped: m,
+            not_tracked: m,
+            non_finite: m,
+            depth_not_positive: m,
+            depth_too_large: m,
+            outside_fov: m,
+            repeated: m,
+            out_of_order: m,
+            nav_non_finite: m,
+            nav_outside_envelope: m,
+            measurement_held_steps: m,
+            nav_held_steps: m,
+            engage_refused: m,
+            saturated_steps: m,
+            integrator_frozen_steps: m,
+            non_finite_commands: m,
+        };
+        let link = LinkCounters {
+            frames_ok: m,
+            corrupt: m,
+            oversize: m,
+            malformed: m,
+            wrong_version: m,
+            seq_gap: m,
+            seq_repeat: m,
+            seq_old: m,
+            timeouts: m,
+            stale_steps: m,
+            held_steps: m,
+            deadline_missed: m,
+            rx_errors: m,
+            tx_errors: m,
         };
         let output = ControllerOutput {
+            command: ActuatorCommand::from_array([-1.0; 4]),
             mode: Mode::Breakaway,
-            breakaway_reason: Some(BreakawayReason::PassedDroguePlane),
+            breakaway_reason: Some(BreakawayReason::ContactLost),
             status: StatusFlags(u16::MAX),
             measurement_error: Some(MeasurementError::OutOfOrder),
-            step: u32::MAX,
-            ..Default::default()
+            nav_error: Some(NavError::OutsideEnvelope),
+            v_des: VelocityRe {
+                x_right_mps: 1.0,
+                y_down_mps: 1.0,
+                z_fwd_mps: 1.0,
+            },
+            target: TargetEstimate {
+                right_m: 1.0,
+                down_m: 1.0,
+                depth_m: 1.0,
+            },
+            step: m,
         };
         Downlink {
-            version: PROTOCOL_VERSION,
+            seq: m,
+            echo_seq: Some(m),
+            link_status: LinkStatus(u8::MAX),
             output,
-            counters: Counters {
-                not_tracked: u32::MAX,
-                ..counters
+            counters,
+            link,
+            cost: Cost {
+                unit: CostUnit::Cycles,
+                step: m,
+                decode: m,
+                encode_prev: m,
             },
         }
     }
 
     #[test]
-    fn uplink_round_trips() {
+    fn cobs_matches_the_published_examples() {
+        // Cheshire & Baker's examples (as in the Wikipedia table), without the delimiter.
+        let cases: &[(&[u8], &[u8])] = &[
+            (&[0x00], &[0x01, 0x01]),
+            (&[0x00, 0x00], &[0x01, 0x01, 0x01]),
+            (&[0x00, 0x11, 0x00], &[0x01, 0x02, 0x11, 0x01]),
+            (&[0x11, 0x22, 0x00, 0x33], &[0x03, 0x11, 0x22, 0x02, 0x33]),
+            (&[0x11, 0x22, 0x33, 0x44], &[0x05, 0x11, 0x22, 0x33, 0x44]),
+            (&[0x11, 0x00, 0x00, 0x00], &[0x02, 0x11, 0x01, 0x01, 0x01]),
+        ];
+        for (src, want) in cases {
+            let mut out = [0u8; 16];
+            let n = cobs_encode(src, &mut out).unwrap();
+            assert_eq!(&out[..n], *want, "{src:02x?}");
+        }
+        // 254 non-zero bytes: one full block, no trailing code.
+        let src: Vec<u8> = (1..=254u8).collect();
+        let mut out = [0u8; 300];
+        let n = cobs_encode(&src, &mut out).unwrap();
+        assert_eq!(n, 255);
+        assert_eq!(out[0], 0xFF);
+        // 255 non-zero bytes: a full block, then a block of one.
+        let src: Vec<u8> = (0..255u32).map(|i| (i % 255) as u8 + 1).collect();
+        let n = cobs_encode(&src, &mut out).unwrap();
+        assert_eq!((n, out[0], out[255]), (257, 0xFF, 0x02));
+    }
+
+    /// Feeds `bytes` and collects every frame result (payload copied out).
+    fn feed_all(
+        d: &mut FrameDecoder,
+        bytes: &[u8],
+    ) -> Vec<Result<(FrameKind, Vec<u8>), WireError>> {
+        bytes
+            .iter()
+            .filter_map(|&b| d.feed(b).map(|r| r.map(|p| (p.kind, p.body.to_vec()))))
+            .collect()
+    }
+
+    #[test]
+    fn uplink_round_trips_bit_for_bit() {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let m = uplink();
-        let frame = encode(&m, &mut buf).unwrap();
+        let frame = encode_uplink(&m, &mut buf).unwrap();
         assert_eq!(frame.last(), Some(&0));
         assert!(!frame[..frame.len() - 1].contains(&0));
         let back = decode_uplink(frame).unwrap();
-        assert!(back.input.nav.lon.v_mps.is_nan());
+        assert_eq!(
+            back.input.nav.lon.v_mps.to_bits(),
+            m.input.nav.lon.v_mps.to_bits()
+        );
         assert_eq!(back.input.measurement, m.input.measurement);
-        assert_eq!(back.input.request, ModeRequest::Engage);
+        assert_eq!((back.seq, back.input.request), (m.seq, ModeRequest::Engage));
+        assert_eq!(decode_uplink(&frame[..frame.len() - 1]).unwrap().seq, m.seq);
     }
 
     #[test]
     fn largest_downlink_fits_and_round_trips() {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let m = downlink();
-        let frame = encode(&m, &mut buf).unwrap();
+        let m = largest_downlink();
+        let body = postcard::to_slice(&m, &mut [0u8; 512]).unwrap().len();
+        assert!(body <= MAX_BODY_LEN, "body {body} > {MAX_BODY_LEN}");
+        let frame = encode_downlink(&m, &mut buf).unwrap();
         assert!(frame.len() <= MAX_FRAME_LEN);
         assert_eq!(decode_downlink(frame).unwrap(), m);
+        // The documented sizes (module doc): the extremes of both kinds.
+        let small = encode_downlink(&Downlink::default(), &mut [0u8; MAX_FRAME_LEN])
+            .unwrap()
+            .len();
+        let up_small = encode_uplink(&Uplink::default(), &mut [0u8; MAX_FRAME_LEN])
+            .unwrap()
+            .len();
+        let mut big_up = uplink();
+        big_up.input.request = ModeRequest::Reset;
+        let up_big = encode_uplink(&big_up, &mut [0u8; MAX_FRAME_LEN])
+            .unwrap()
+            .len();
+        assert_eq!(
+            (up_small, up_big, small, frame.len()),
+            (73, 81, 93, 251),
+            "update the module doc"
+        );
     }
 
     #[test]
     fn names_bad_frames() {
         let mut small = [0u8; 8];
         assert_eq!(
-            encode(&downlink(), &mut small).unwrap_err(),
+            encode_downlink(&largest_downlink(), &mut small).unwrap_err(),
             WireError::BufferTooSmall
         );
-        let mut junk = [0x05, 0x01, 0x00];
-        assert_eq!(decode_uplink(&mut junk), Err(WireError::Malformed));
+        // A block code that runs past the zero.
+        assert_eq!(decode_uplink(&[0x05, 0x01, 0x00]), Err(WireError::Cobs));
+        assert_eq!(decode_uplink(&[0x03, 0x01, 0x02]), Err(WireError::TooShort));
+        assert_eq!(decode_uplink(&[]), Err(WireError::TooShort));
+
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(
-            &Uplink {
-                version: 9,
-                ..uplink()
-            },
-            &mut buf,
-        )
-        .unwrap();
-        assert_eq!(decode_uplink(frame), Err(WireError::VersionMismatch));
+        let frame = encode_uplink(&uplink(), &mut buf).unwrap().to_vec();
+        assert_eq!(decode_downlink(&frame), Err(WireError::WrongKind));
+        let mut flipped = frame.clone();
+        flipped[5] ^= 0x40;
+        assert_eq!(decode_uplink(&flipped), Err(WireError::Crc));
+
+        // Right CRC, wrong version / unknown kind / body that is not an Uplink.
+        let raw = |payload: &[u8]| {
+            let mut p = payload.to_vec();
+            p.extend_from_slice(&CRC32C.checksum(payload).to_le_bytes());
+            let mut out = [0u8; 300];
+            let n = cobs_encode(&p, &mut out).unwrap();
+            out[..n].to_vec()
+        };
+        assert_eq!(
+            decode_uplink(&raw(&[9, b'M', 1, 2])),
+            Err(WireError::VersionMismatch)
+        );
+        assert_eq!(
+            decode_uplink(&raw(&[PROTOCOL_VERSION, b'X', 1, 2])),
+            Err(WireError::WrongKind)
+        );
+        assert_eq!(
+            decode_uplink(&raw(&[PROTOCOL_VERSION, b'M', 1, 2])),
+            Err(WireError::Malformed)
+        );
+        // A valid uplink body with a byte left over.
+        let mut body = [0u8; 128];
+        let n = postcard::to_slice(&uplink(), &mut body).unwrap().len();
+        let mut p = std::vec![PROTOCOL_VERSION, b'M'];
+        p.extend_from_slice(&body[..n]);
+        p.push(7);
+        assert_eq!(decode_uplink(&raw(&p)), Err(WireError::Malformed));
+
+        // Oversize: reported once, at the zero, then the next frame decodes.
+        let mut d = FrameDecoder::new();
+        let mut stream = std::vec![0x55u8; 1000];
+        stream.push(0);
+        stream.extend_from_slice(&frame);
+        let got = feed_all(&mut d, &stream);
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[0], Err(WireError::Oversize));
+        assert!(got[1].is_ok());
+    }
+
+    #[test]
+    fn counters_map_every_error_to_one_counter() {
+        use WireError::*;
+        let all = [
+            BufferTooSmall,
+            TooLarge,
+            Cobs,
+            Oversize,
+            TooShort,
+            Crc,
+            VersionMismatch,
+            WrongKind,
+            Malformed,
+        ];
+        let mut c = LinkCounters::default();
+        for e in all {
+            c.count(e);
+        }
+        assert_eq!(
+            (c.corrupt, c.oversize, c.malformed, c.wrong_version),
+            (3, 1, 1, 2)
+        );
+        assert_eq!((c.tx_errors, c.rejected_frames()), (2, 7));
+        assert!(c.count_sequence(SequenceCheck::New { dropped: 3 }));
+        assert!(!c.count_sequence(SequenceCheck::Rejected(MeasurementError::Repeated)));
+        assert!(!c.count_sequence(SequenceCheck::Rejected(MeasurementError::OutOfOrder)));
+        assert_eq!(
+            (c.frames_ok, c.seq_gap, c.seq_repeat, c.seq_old),
+            (1, 3, 1, 1)
+        );
+    }
+
+    #[test]
+    fn empty_frames_are_idle_fill() {
+        let mut d = FrameDecoder::new();
+        assert!(feed_all(&mut d, &[0, 0, 0]).is_empty());
+        assert!(d.is_idle());
+    }
+
+    fn any_f32() -> impl Strategy<Value = f32> {
+        any::<u32>().prop_map(f32::from_bits)
+    }
+
+    prop_compose! {
+        fn any_uplink()(seq in any::<u32>(), cam_seq in any::<u32>(), tracked in any::<bool>(),
+                        img in [any_f32(), any_f32(), any_f32()],
+                        nav in proptest::array::uniform12(any_f32()),
+                        contact in any::<bool>(), req in 0u8..4) -> Uplink {
+            Uplink {
+                seq,
+                input: ControllerInput {
+                    measurement: CameraMeasurement {
+                        seq: cam_seq, tracked, image_x: img[0], image_y: img[1], depth_m: img[2],
+                    },
+                    nav: NavSample::from_array(nav),
+                    probe_contact: contact,
+                    request: [ModeRequest::None, ModeRequest::Engage, ModeRequest::Abort,
+                              ModeRequest::Reset][usize::from(req)],
+                },
+            }
+        }
+    }
+
+    /// The bytes of a message (NaN-safe equality).
+    fn bytes_of<T: Serialize>(m: &T) -> Vec<u8> {
+        postcard::to_slice(m, &mut [0u8; 512]).unwrap().to_vec()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(512))]
+
+        /// Any byte sequence: no panic, at most one result per zero, idle after a zero.
+        #[test]
+        fn decoder_takes_any_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+            let mut d = FrameDecoder::new();
+            let zeros = bytes.iter().filter(|&&b| b == 0).count();
+            let results = feed_all(&mut d, &bytes);
+            prop_assert!(results.len() <= zeros);
+            if bytes.last() == Some(&0) {
+                prop_assert!(d.is_idle());
+            }
+        }
+
+        /// Any garbage, then a zero, then a frame: the frame decodes.
+        #[test]
+        fn decoder_resynchronises_after_garbage(
+            garbage in proptest::collection::vec(any::<u8>(), 0..600),
+            m in any_uplink(),
+        ) {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let frame = encode_uplink(&m, &mut buf).unwrap();
+            let mut d = FrameDecoder::new();
+            let mut stream = garbage.clone();
+            stream.push(0);
+            stream.extend_from_slice(frame);
+            let results = feed_all(&mut d, &stream);
+            let (kind, body) = results.last().unwrap().clone().unwrap();
+            let back = Payload { kind, body: &body }.uplink().unwrap();
+            prop_assert_eq!(bytes_of(&back), bytes_of(&m));
+        }
+
+        /// Every uplink round-trips bit for bit and fits.
+        #[test]
+        fn uplinks_round_trip(m in any_uplink()) {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let frame = encode_uplink(&m, &mut buf).unwrap();
+            prop_assert!(frame.len() <= 81);
+            prop_assert_eq!(bytes_of(&decode_uplink(frame).unwrap()), bytes_of(&m));
+        }
+
+        /// One byte changed anywhere (not into a zero, which would cut the frame) is caught.
+        #[test]
+        fn a_changed_byte_is_rejected(m in any_uplink(), at in any::<usize>(), mask in 1u8..=255) {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let mut frame = encode_uplink(&m, &mut buf).unwrap().to_vec();
+            let i = at % (frame.len() - 1);
+            prop_assume!(frame[i] ^ mask != 0);
+            frame[i] ^= mask;
+            let r = decode_uplink(&frame);
+            prop_assert!(r.is_err(), "accepted a corrupted frame: {:?}", r);
+        }
     }
 }

@@ -16,7 +16,8 @@ use ibvs_core::gains::TRIM;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{NavError, NavSample};
 use ibvs_core::wire::{
-    self, Downlink, MAX_FRAME_LEN, PROTOCOL_VERSION, Uplink, decode_downlink, decode_uplink,
+    Downlink, LinkCounters, MAX_FRAME_LEN, Uplink, decode_downlink, decode_uplink, encode_downlink,
+    encode_uplink,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
@@ -843,12 +844,9 @@ fn uplink_of_a_real_input_round_trips_and_steps_identically() {
     let mut input = rig.healthy_input(MID);
     input.request = ModeRequest::Abort;
     input.nav.lat.y_right_m = -1e-40; // subnormal, must survive bit for bit
-    let sent = Uplink {
-        version: PROTOCOL_VERSION,
-        input,
-    };
+    let sent = Uplink { seq: 7, input };
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let frame = wire::encode(&sent, &mut buf).expect("fits");
+    let frame = encode_uplink(&sent, &mut buf).expect("fits");
     let received = decode_uplink(frame).expect("decodes");
     assert_eq!(received, sent);
     assert_eq!(rig.ctl.step(&input), twin.ctl.step(&received.input));
@@ -875,12 +873,18 @@ fn downlink_of_a_real_step_fits_a_frame_and_round_trips() {
     assert!(output.breakaway_reason.is_some() && output.measurement_error.is_some());
     assert!(output.nav_error.is_some());
     let sent = Downlink {
-        version: PROTOCOL_VERSION,
+        seq: u32::MAX,
+        echo_seq: Some(u32::MAX),
         output,
         counters: *rig.ctl.counters(),
+        link: LinkCounters {
+            corrupt: 3,
+            ..LinkCounters::default()
+        },
+        ..Downlink::default()
     };
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let frame = wire::encode(&sent, &mut buf).expect("fits MAX_FRAME_LEN");
+    let frame = encode_downlink(&sent, &mut buf).expect("fits MAX_FRAME_LEN");
     assert!(frame.len() <= MAX_FRAME_LEN);
     assert_eq!(decode_downlink(frame).expect("decodes"), sent);
 }
