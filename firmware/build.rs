@@ -1,10 +1,12 @@
 //! Build script of the flight-computer binary: puts the workspace's `memory.x` on the linker's
-//! search path.
+//! search path, and adds defmt's linker script for the `f405` board.
 //!
 //! cortex-m-rt's `link.x` (passed as `-Tlink.x` by `.cargo/config.toml`) does
 //! `INCLUDE memory.x`; the linker looks for it in its search path, so it is copied into
 //! `OUT_DIR` and that directory is added. Only the bare-metal target links with `link.x`; on
-//! the host the script does nothing but ask to be rerun when `memory.x` changes.
+//! the host the script does nothing but ask to be rerun when `memory.x` changes. The `f405`
+//! board logs with defmt, whose `defmt.x` (on the search path through the defmt crate) must
+//! be passed to the linker too; the `qemu` board does not link defmt, so it must not be.
 
 use std::env;
 use std::fs;
@@ -21,6 +23,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         fs::copy(&memory_x, out.join("memory.x"))
             .map_err(|e| format!("copying {}: {e}", memory_x.display()))?;
         println!("cargo:rustc-link-search={}", out.display());
+        if env::var_os("CARGO_FEATURE_F405").is_some() {
+            println!("cargo:rustc-link-arg=-Tdefmt.x");
+        }
     }
     Ok(())
 }

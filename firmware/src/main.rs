@@ -1,31 +1,38 @@
 //! # firmware: the flight-computer binary (STM32F405, Cortex-M4F)
 //!
-//! At this stage a smoke binary: it links `ibvs-core` and runs ONE controller step
-//! ([`one_step::run`]), so that the cross build, the link against `memory.x` and the absence
-//! of any allocator are checked from the start. The real firmware (control task at the core's
-//! period, camera and navigation links, actuator outputs) replaces it later.
+//! Runs the docking controller (`ibvs-core`) behind the serial link protocol of
+//! [`ibvs_core::wire`]: measurement frames in, command frames out.
 //!
-//! Layout (the quartiq/stabilizer pattern): everything that needs the board sits in
-//! [`board`], compiled only for `target_os = "none"`; its crates are target-only
-//! dependencies. On the host the same binary builds and its `main` runs the same step and
-//! prints the result, so `cargo build --workspace` and `cargo test --workspace` stay host
-//! builds.
+//! ```text
+//! USART1 RX ─► interrupt ─► queue ─► app: FrameDecoder ─► Uplink ─► Controller::step
+//!                                         (lockstep: per frame; free-running: per SysTick)
+//! USART1 TX ◄──────────────────────── app: encode_downlink ◄─ output, counters, cost ◄┘
+//! ```
 //!
-//! - target: `cargo run -p firmware --target thumbv7em-none-eabihf --release` runs it in QEMU
-//!   (runner in `.cargo/config.toml`); QEMU's exit status is the check's (0 pass, 1 fail).
-//! - host: `cargo run -p firmware` prints the step's mode and commands; exit status likewise.
+//! Layout (the quartiq/stabilizer pattern): [`app`] is the board-independent application
+//! (embedded-io traits at its boundary, unit-tested on the host); `board` (bare metal only)
+//! holds everything that touches the MCU, for two boards selected by cargo feature: `qemu`
+//! (default; QEMU's netduinoplus2) and `f405` (real hardware). See `firmware/README.md` for
+//! building, flashing, wiring and the processor-in-the-loop runs.
+//!
+//! At reset the firmware runs a power-on self-test ([`one_step::run`]: one controller step
+//! on a canned input must enter approach with finite commands) before the link comes up.
+//! On the host the same crate builds and its `main` runs that self-test and prints the
+//! result, so `cargo build --workspace` and `cargo test --workspace` stay host builds.
 //!
 //! Invariant: no global allocator anywhere in this crate or below it (`ibvs-core` is
 //! `no_std` without `alloc`); the board build would fail to link if anything allocated.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 
-mod one_step;
+pub mod app;
+pub mod bench;
+pub mod one_step;
 
 #[cfg(target_os = "none")]
 mod board;
 
-/// Host entry point: runs the same single step as the board and prints the result.
+/// Host entry point: runs the power-on self-test and prints the result.
 #[cfg(not(target_os = "none"))]
 fn main() -> std::process::ExitCode {
     match one_step::run() {

@@ -1,0 +1,827 @@
+//! The flight-computer application, board-independent: serial link in, controller, serial
+//! link out.
+//!
+//! Place in the data flow: bytes from the link go one at a time through the core's streaming
+//! [`FrameDecoder`]; an accepted measurement frame ([`Uplink`]) feeds [`Controller::step`];
+//! the step's output, the counters and the step's cost go back as a command frame
+//! ([`Downlink`]). The board (`crate::board`, bare metal only) supplies the link (embedded-io
+//! [`Read`] + [`ReadReady`] + [`Write`]), a cost counter ([`CostCounter`]), the control-period
+//! ticks and the idle wait, through the [`Board`] trait; this module never touches hardware
+//! and is unit-tested on the host.
+//!
+//! Two schedules ([`Schedule`]):
+//! - **Lockstep** (simulation, processor-in-the-loop): every new measurement frame runs one
+//!   step and is answered by one command frame at once. A repeated frame (same link sequence
+//!   number: the peer retransmits after losing the answer) is answered by the previous
+//!   command frame again, marked [`LinkStatus::RETRANSMIT`], without a step. There is no
+//!   timeout on this side: time is the peer's (its lockstep timeout).
+//! - **Free-running** (flight): the control task runs once per control period (ticks from
+//!   the board's timer) on the latest accepted measurement frame and sends one command frame
+//!   per step. A period without a new frame reuses the last input with its request cleared
+//!   ([`LinkStatus::INPUT_HELD`]; the core sees its camera frame as repeated and holds, then
+//!   breaks away after its hold limit). After [`LINK_TIMEOUT_PERIODS`] periods without a new
+//!   frame the link is stale ([`LinkStatus::STALE`], [`LinkCounters::timeouts`]): the
+//!   navigation is then fed as invalid (NaN), so the core freezes its integrators and a
+//!   breakaway flies open loop (trim surfaces, throttle cut) instead of closing the loop on
+//!   stale navigation. Periods that passed without their step are counted
+//!   ([`LinkCounters::deadline_missed`]). Before the first measurement frame the commands are
+//!   the standby trim and the controller is not stepped. When two frames arrive within one
+//!   period the later one is used (the core counts the camera frame it skipped as dropped);
+//!   an operator request (engage, abort, reset) of the skipped frame is carried over unless
+//!   the later frame has its own, so no request is lost.
+//!
+//! Every rejected byte sequence is counted in [`LinkCounters`] (by the core's
+//! [`LinkCounters::count`]) and so reported in the next command frame.
+//!
+//! Invariants: nothing here panics or allocates for any byte sequence (tested on the host
+//! with a pseudo-random byte stream; the decoder underneath is property-tested in the core);
+//! every command sent is the core's (finite, inside the actuator limits) or the trim.
+
+use embedded_io::{Read, ReadReady, Write};
+use ibvs_core::actuator::ActuatorCommand;
+use ibvs_core::config::trim_command;
+use ibvs_core::measurement::SequenceTracker;
+use ibvs_core::nav::NavSample;
+use ibvs_core::wire::{
+    Cost, CostUnit, Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink,
+    encode_downlink,
+};
+use ibvs_core::{
+    BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
+    Mode, ModeRequest,
+};
+
+/// How control steps are triggered (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Schedule {
+    /// One step and one command frame per new measurement frame.
+    Lockstep,
+    /// One step and one command frame per control period, on the latest measurement.
+    FreeRunning,
+}
+
+/// Free-running link timeout, control periods: after this many periods without a new
+/// measurement frame (5 x 20 ms = 100 ms) the link is stale and the navigation is treated as
+/// invalid. Shorter than the core's hold limit (25 periods), so the core's own
+/// hold-then-breakaway logic still decides when to break away (`MeasurementLost`).
+pub const LINK_TIMEOUT_PERIODS: u32 = 5;
+
+/// A free-running counter read to measure costs (instructions under QEMU, cycles on
+/// hardware); wraps.
+pub trait CostCounter {
+    /// What one count is.
+    const UNIT: CostUnit;
+    /// The counter now.
+    fn now() -> u32;
+}
+
+/// No counter (host builds): every cost reads 0.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoCounter;
+
+impl CostCounter for NoCounter {
+    const UNIT: CostUnit = CostUnit::Unavailable;
+    fn now() -> u32 {
+        0
+    }
+}
+
+/// Something worth a log line (the board decides how: semihosting under QEMU, defmt on the
+/// board).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Event {
+    /// The controller changed mode in the last step.
+    ModeChanged {
+        /// The new mode.
+        mode: Mode,
+        /// Why, for a breakaway.
+        reason: Option<BreakawayReason>,
+        /// Controller step number.
+        step: u32,
+    },
+    /// Free-running: the link went stale (no new frame for [`LINK_TIMEOUT_PERIODS`]).
+    LinkStale,
+    /// Free-running: a new frame arrived after the link was stale.
+    LinkRecovered,
+}
+
+/// What the application needs from a board.
+pub trait Board {
+    /// The serial link to the peer.
+    type Link: Read + ReadReady + Write;
+    /// The cost counter.
+    type Counter: CostCounter;
+    /// The link.
+    fn link(&mut self) -> &mut Self::Link;
+    /// Free-running: control periods elapsed since the last call (0: none due).
+    fn take_periods(&mut self) -> u32;
+    /// Receiver errors (hardware overrun, noise, framing; buffer overflow) since the last
+    /// call.
+    fn take_rx_errors(&mut self) -> u32;
+    /// Sleeps until something may be pending (an interrupt), or returns at once.
+    fn wait_for_event(&mut self);
+    /// Logs an event.
+    fn log(&mut self, event: Event);
+}
+
+/// The standby output: trim commands, nothing else (boot, panic, no link yet).
+pub fn trim_output() -> ControllerOutput {
+    ControllerOutput {
+        command: ActuatorCommand::from_array(trim_command()),
+        ..ControllerOutput::default()
+    }
+}
+
+/// The application state: the controller and both ends of the link protocol.
+#[derive(Debug, Clone)]
+pub struct App {
+    controller: Controller,
+    schedule: Schedule,
+    decoder: FrameDecoder,
+    link: LinkCounters,
+    rx_seq: SequenceTracker,
+    /// The latest accepted measurement frame.
+    latest: Option<Uplink>,
+    /// Free-running: `latest` arrived after the previous step.
+    fresh: bool,
+    /// Free-running: periods since the latest new frame.
+    periods_since_fresh: u32,
+    stale: bool,
+    /// Decode cost of the frame being received, and of `latest`.
+    decode_acc: u32,
+    decode_latest: u32,
+    encode_prev: u32,
+    tx_seq: u32,
+    /// The last command frame sent (retransmitted on a repeated measurement frame).
+    last: Downlink,
+    /// Status bits set in every frame (schedule, previous panic).
+    base_status: u8,
+    buf: [u8; MAX_FRAME_LEN],
+}
+
+impl App {
+    /// The application in standby, before the boot frame.
+    pub fn new(schedule: Schedule, previous_panic: bool) -> Result<Self, ConfigError> {
+        let mut base_status = 0;
+        if schedule == Schedule::FreeRunning {
+            base_status |= LinkStatus::FREE_RUNNING;
+        }
+        if previous_panic {
+            base_status |= LinkStatus::PREVIOUS_PANIC;
+        }
+        Ok(Self {
+            controller: Controller::new(ControllerConfig::default())?,
+            schedule,
+            decoder: FrameDecoder::new(),
+            link: LinkCounters::default(),
+            rx_seq: SequenceTracker::default(),
+            latest: None,
+            fresh: false,
+            periods_since_fresh: 0,
+            stale: false,
+            decode_acc: 0,
+            decode_latest: 0,
+            encode_prev: 0,
+            tx_seq: 0,
+            last: Downlink::default(),
+            base_status,
+            buf: [0; MAX_FRAME_LEN],
+        })
+    }
+
+    /// The schedule.
+    pub fn schedule(&self) -> Schedule {
+        self.schedule
+    }
+
+    /// The link counters so far.
+    pub fn link_counters(&self) -> &LinkCounters {
+        &self.link
+    }
+
+    /// The boot frame: standby trim, [`LinkStatus::BOOT`], sequence 0. Send it once the link
+    /// is up; it tells the peer the firmware is listening.
+    pub fn boot_frame<C: CostCounter>(&mut self) -> Option<&[u8]> {
+        let d = self.frame::<C>(
+            None,
+            LinkStatus::BOOT | LinkStatus::STALE,
+            trim_output(),
+            Cost::default(),
+        );
+        self.encode::<C>(d)
+    }
+
+    fn frame<C: CostCounter>(
+        &self,
+        echo_seq: Option<u32>,
+        status: u8,
+        output: ControllerOutput,
+        cost: Cost,
+    ) -> Downlink {
+        Downlink {
+            seq: self.tx_seq,
+            echo_seq,
+            link_status: LinkStatus(self.base_status | status),
+            output,
+            counters: *self.controller.counters(),
+            link: self.link,
+            cost: Cost {
+                unit: C::UNIT,
+                encode_prev: self.encode_prev,
+                ..cost
+            },
+        }
+    }
+
+    /// Encodes `d` into the frame buffer and remembers it; `None` (counted) if it failed.
+    fn encode<C: CostCounter>(&mut self, d: Downlink) -> Option<&[u8]> {
+        let t0 = C::now();
+        let n = encode_downlink(&d, &mut self.buf).map(<[u8]>::len);
+        self.encode_prev = C::now().wrapping_sub(t0);
+        match n {
+            Ok(n) => {
+                self.last = d;
+                self.tx_seq = self.tx_seq.wrapping_add(1);
+                Some(&self.buf[..n])
+            }
+            Err(e) => {
+                self.link.count(e);
+                None
+            }
+        }
+    }
+
+    /// Runs one controller step on `input` and builds its command frame.
+    fn step<C: CostCounter>(
+        &mut self,
+        input: &ControllerInput,
+        echo_seq: Option<u32>,
+        status: u8,
+        decode: u32,
+    ) -> (Downlink, Option<Event>) {
+        let before = self.controller.mode();
+        let t0 = C::now();
+        let out = self.controller.step(input);
+        let step = C::now().wrapping_sub(t0);
+        let event = (out.mode != before).then_some(Event::ModeChanged {
+            mode: out.mode,
+            reason: out.breakaway_reason,
+            step: out.step,
+        });
+        let cost = Cost {
+            step,
+            decode,
+            ..Cost::default()
+        };
+        (self.frame::<C>(echo_seq, status, out, cost), event)
+    }
+
+    /// Feeds one received byte. Returns the length of a command frame to send (in
+    /// [`App::frame_bytes`]) when the byte completed a frame that is answered (lockstep).
+    pub fn on_byte<C: CostCounter>(&mut self, byte: u8) -> (Option<usize>, Option<Event>) {
+        let t0 = C::now();
+        let result = self.decoder.feed(byte).map(|r| r.and_then(|p| p.uplink()));
+        self.decode_acc = self.decode_acc.saturating_add(C::now().wrapping_sub(t0));
+        let Some(result) = result else {
+            return (None, None);
+        };
+        let decode = core::mem::take(&mut self.decode_acc);
+        match result {
+            Err(e) => {
+                self.link.count(e);
+                (None, None)
+            }
+            Ok(up) => self.accept::<C>(up, decode),
+        }
+    }
+
+    fn accept<C: CostCounter>(
+        &mut self,
+        up: Uplink,
+        decode: u32,
+    ) -> (Option<usize>, Option<Event>) {
+        let check = self.rx_seq.observe(up.seq);
+        let new = self.link.count_sequence(check);
+        match (self.schedule, new) {
+            (Schedule::Lockstep, true) => {
+                self.latest = Some(up);
+                let (d, event) = self.step::<C>(&up.input, Some(up.seq), 0, decode);
+                (self.encode::<C>(d).map(<[u8]>::len), event)
+            }
+            (Schedule::Lockstep, false) if self.last.echo_seq == Some(up.seq) => {
+                let mut d = self.last;
+                d.seq = self.tx_seq;
+                d.link = self.link;
+                d.link_status.0 |= LinkStatus::RETRANSMIT;
+                (self.encode::<C>(d).map(<[u8]>::len), None)
+            }
+            (Schedule::Lockstep, false) => (None, None),
+            (Schedule::FreeRunning, true) => {
+                let mut up = up;
+                if let Some(prev) = self.latest.filter(|_| self.fresh)
+                    && up.input.request == ModeRequest::None
+                {
+                    // `prev` is superseded before its step: keep its operator request.
+                    up.input.request = prev.input.request;
+                }
+                self.latest = Some(up);
+                self.fresh = true;
+                self.decode_latest = decode;
+                let event = self.stale.then_some(Event::LinkRecovered);
+                self.stale = false;
+                (None, event)
+            }
+            (Schedule::FreeRunning, false) => (None, None),
+        }
+    }
+
+    /// Free-running: `periods` control periods elapsed (at least one is due). Runs one step
+    /// on the latest input and returns the length of its command frame.
+    pub fn on_periods<C: CostCounter>(&mut self, periods: u32) -> (Option<usize>, Option<Event>) {
+        if periods == 0 {
+            return (None, None);
+        }
+        self.link.deadline_missed = self.link.deadline_missed.saturating_add(periods - 1);
+        let Some(latest) = self.latest else {
+            // No measurement frame yet: standby trim, no step.
+            let d = self.frame::<C>(None, LinkStatus::STALE, trim_output(), Cost::default());
+            return (self.encode::<C>(d).map(<[u8]>::len), None);
+        };
+        let mut input = latest.input;
+        let mut status = 0;
+        let mut decode = 0;
+        let mut event = None;
+        if self.fresh {
+            self.fresh = false;
+            self.periods_since_fresh = 0;
+            decode = self.decode_latest;
+        } else {
+            self.periods_since_fresh = self.periods_since_fresh.saturating_add(periods);
+            input.request = ModeRequest::None;
+            status |= LinkStatus::INPUT_HELD;
+            self.link.held_steps = self.link.held_steps.saturating_add(1);
+            if self.periods_since_fresh > LINK_TIMEOUT_PERIODS {
+                if !self.stale {
+                    self.stale = true;
+                    self.link.timeouts = self.link.timeouts.saturating_add(1);
+                    event = Some(Event::LinkStale);
+                }
+                status |= LinkStatus::STALE;
+                self.link.stale_steps = self.link.stale_steps.saturating_add(1);
+                input.nav = NavSample::from_array([f32::NAN; 12]);
+            }
+        }
+        let (d, mode_event) = self.step::<C>(&input, Some(latest.seq), status, decode);
+        (self.encode::<C>(d).map(<[u8]>::len), event.or(mode_event))
+    }
+
+    /// The frame buffer: the first `len` bytes are the frame [`App::on_byte`] or
+    /// [`App::on_periods`] returned.
+    pub fn frame_bytes(&self, len: usize) -> &[u8] {
+        &self.buf[..len.min(MAX_FRAME_LEN)]
+    }
+
+    /// Writes the first `len` bytes of the frame buffer to the link; a failure is counted.
+    fn send<B: Board>(&mut self, board: &mut B, len: usize) {
+        let frame = &self.buf[..len.min(MAX_FRAME_LEN)];
+        let link = board.link();
+        if link.write_all(frame).and_then(|()| link.flush()).is_err() {
+            self.link.tx_errors = self.link.tx_errors.saturating_add(1);
+        }
+    }
+
+    /// Sends the boot frame.
+    pub fn boot<B: Board>(&mut self, board: &mut B) {
+        if let Some(len) = self.boot_frame::<B::Counter>().map(<[u8]>::len) {
+            self.send(board, len);
+        }
+    }
+
+    /// Services the link once: every byte available (answering frames in lockstep), then a
+    /// due control period (free-running). Returns the number of command frames sent.
+    pub fn poll<B: Board>(&mut self, board: &mut B) -> u32 {
+        let mut sent = 0;
+        let errors = board.take_rx_errors();
+        self.link.rx_errors = self.link.rx_errors.saturating_add(errors);
+        let mut chunk = [0u8; 64];
+        loop {
+            let link = board.link();
+            match link.read_ready() {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(_) => {
+                    self.link.rx_errors = self.link.rx_errors.saturating_add(1);
+                    break;
+                }
+            }
+            let n = match link.read(&mut chunk) {
+                Ok(0) => break,
+                Ok(n) => n,
+                Err(_) => {
+                    self.link.rx_errors = self.link.rx_errors.saturating_add(1);
+                    break;
+                }
+            };
+            for &b in &chunk[..n.min(chunk.len())] {
+                let (len, event) = self.on_byte::<B::Counter>(b);
+                if let Some(e) = event {
+                    board.log(e);
+                }
+                if let Some(len) = len {
+                    self.send(board, len);
+                    sent += 1;
+                }
+            }
+        }
+        if self.schedule == Schedule::FreeRunning {
+            let periods = board.take_periods();
+            let (len, event) = self.on_periods::<B::Counter>(periods);
+            if let Some(e) = event {
+                board.log(e);
+            }
+            if let Some(len) = len {
+                self.send(board, len);
+                sent += 1;
+            }
+        }
+        sent
+    }
+
+    /// The main loop: boot frame, then poll and sleep forever.
+    pub fn run<B: Board>(mut self, board: &mut B) -> ! {
+        self.boot(board);
+        loop {
+            self.poll(board);
+            board.wait_for_event();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::VecDeque;
+    use std::vec::Vec;
+
+    use ibvs_core::measurement::CameraMeasurement;
+    use ibvs_core::wire::{FrameDecoder, MAX_FRAME_LEN, encode_uplink};
+
+    use super::*;
+    use crate::one_step::engage_input;
+
+    /// An in-memory board: bytes in, frames out, periods on demand.
+    #[derive(Default)]
+    struct Mock {
+        rx: VecDeque<u8>,
+        tx: Vec<u8>,
+        periods: u32,
+        rx_errors: u32,
+        events: Vec<Event>,
+    }
+
+    #[derive(Debug)]
+    struct MockError;
+
+    impl core::fmt::Display for MockError {
+        fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+            f.write_str("mock link error")
+        }
+    }
+
+    impl std::error::Error for MockError {}
+
+    impl embedded_io::Error for MockError {
+        fn kind(&self) -> embedded_io::ErrorKind {
+            embedded_io::ErrorKind::Other
+        }
+    }
+
+    impl embedded_io::ErrorType for Mock {
+        type Error = MockError;
+    }
+
+    impl Read for Mock {
+        fn read(&mut self, buf: &mut [u8]) -> Result<usize, MockError> {
+            let n = buf.len().min(self.rx.len());
+            for (slot, b) in buf.iter_mut().zip(self.rx.drain(..n)) {
+                *slot = b;
+            }
+            Ok(n)
+        }
+    }
+
+    impl ReadReady for Mock {
+        fn read_ready(&mut self) -> Result<bool, MockError> {
+            Ok(!self.rx.is_empty())
+        }
+    }
+
+    impl Write for Mock {
+        fn write(&mut self, buf: &[u8]) -> Result<usize, MockError> {
+            self.tx.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> Result<(), MockError> {
+            Ok(())
+        }
+    }
+
+    impl Board for Mock {
+        type Link = Self;
+        type Counter = NoCounter;
+        fn link(&mut self) -> &mut Self {
+            self
+        }
+        fn take_periods(&mut self) -> u32 {
+            core::mem::take(&mut self.periods)
+        }
+        fn take_rx_errors(&mut self) -> u32 {
+            core::mem::take(&mut self.rx_errors)
+        }
+        fn wait_for_event(&mut self) {}
+        fn log(&mut self, event: Event) {
+            self.events.push(event);
+        }
+    }
+
+    impl Mock {
+        fn send(&mut self, seq: u32, input: ControllerInput) {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let f = encode_uplink(&Uplink { seq, input }, &mut buf).expect("fits");
+            self.rx.extend(f.iter().copied());
+        }
+        /// Every command frame sent so far (and clears the output).
+        fn frames(&mut self) -> Vec<Downlink> {
+            let mut d = FrameDecoder::new();
+            let out = self
+                .tx
+                .iter()
+                .filter_map(|&b| d.feed(b).map(|r| r.and_then(|p| p.downlink())))
+                .map(|r| r.expect("valid command frame"))
+                .collect();
+            self.tx.clear();
+            out
+        }
+    }
+
+    fn input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
+        let mut i = engage_input();
+        i.measurement.seq = cam_seq;
+        i.request = request;
+        i
+    }
+
+    fn lockstep() -> (App, Mock) {
+        let mut app = App::new(Schedule::Lockstep, false).expect("config");
+        let mut board = Mock::default();
+        app.boot(&mut board);
+        (app, board)
+    }
+
+    #[test]
+    fn boots_with_a_trim_frame() {
+        let (_, mut board) = lockstep();
+        let f = board.frames();
+        assert_eq!(f.len(), 1);
+        assert!(f[0].link_status.contains(LinkStatus::BOOT));
+        assert_eq!(f[0].output.command.as_array(), trim_command());
+        assert_eq!(
+            (f[0].seq, f[0].echo_seq, f[0].output.mode),
+            (0, None, Mode::Standby)
+        );
+    }
+
+    #[test]
+    fn lockstep_answers_each_frame_like_the_core_in_process() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        let mut twin = Controller::new(ControllerConfig::default()).expect("config");
+        for k in 1..=50u32 {
+            let i = input(
+                k,
+                if k == 1 {
+                    ModeRequest::Engage
+                } else {
+                    ModeRequest::None
+                },
+            );
+            board.send(k, i);
+            assert_eq!(app.poll(&mut board), 1);
+            let f = board.frames();
+            assert_eq!(f.len(), 1);
+            assert_eq!(f[0].output, twin.step(&i));
+            assert_eq!((f[0].seq, f[0].echo_seq), (k, Some(k)));
+            assert_eq!(f[0].counters, *twin.counters());
+            assert_eq!(f[0].link.frames_ok, k);
+        }
+        assert_eq!(
+            board.events,
+            [Event::ModeChanged {
+                mode: Mode::Approach,
+                reason: None,
+                step: 1
+            }]
+        );
+    }
+
+    #[test]
+    fn lockstep_counts_every_bad_input_and_reports_it_next() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        board.send(1, input(1, ModeRequest::Engage));
+        // Garbage with zeros (two corrupt frames), an oversize run, a frame with a bad CRC.
+        board.rx.extend([0x11, 0x22, 0x00, 0x05, 0x01, 0x00]);
+        board.rx.extend(core::iter::repeat_n(0x42, 600));
+        board.rx.push_back(0);
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let mut bad = encode_uplink(
+            &Uplink {
+                seq: 2,
+                input: input(2, ModeRequest::None),
+            },
+            &mut buf,
+        )
+        .expect("fits")
+        .to_vec();
+        bad[10] ^= 0x01;
+        board.rx.extend(bad);
+        board.rx_errors = 2;
+        // The next good frame skips sequence 2 (its frame was lost): a gap of one.
+        board.send(3, input(3, ModeRequest::None));
+        assert_eq!(app.poll(&mut board), 2);
+        let f = board.frames();
+        let l = f[1].link;
+        assert_eq!(
+            (l.corrupt, l.oversize, l.seq_gap, l.rx_errors),
+            (3, 1, 1, 2)
+        );
+        assert_eq!((l.frames_ok, f[1].counters.frames_dropped), (2, 1));
+    }
+
+    #[test]
+    fn lockstep_retransmits_on_a_repeat_without_stepping() {
+        let (mut app, mut board) = lockstep();
+        board.send(1, input(1, ModeRequest::Engage));
+        board.send(1, input(1, ModeRequest::Engage));
+        board.send(0, input(0, ModeRequest::None)); // older: dropped silently, counted
+        app.poll(&mut board);
+        let f = board.frames();
+        assert_eq!(f.len(), 3); // boot, answer, retransmission
+        assert!(f[2].link_status.contains(LinkStatus::RETRANSMIT));
+        assert_eq!(f[2].output, f[1].output);
+        assert_eq!((f[2].counters.steps, f[2].link.seq_repeat), (1, 1));
+        assert_eq!(app.link_counters().seq_old, 1);
+    }
+
+    #[test]
+    fn free_running_holds_then_goes_stale_then_breaks_away_open_loop() {
+        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut board = Mock::default();
+        app.boot(&mut board);
+        // A period before any frame: trim, no step.
+        board.periods = 1;
+        app.poll(&mut board);
+        // Frames for 10 periods, then silence.
+        for k in 1..=10u32 {
+            board.send(
+                k,
+                input(
+                    k,
+                    if k == 1 {
+                        ModeRequest::Engage
+                    } else {
+                        ModeRequest::None
+                    },
+                ),
+            );
+            board.periods = 1;
+            app.poll(&mut board);
+        }
+        for _ in 0..40 {
+            board.periods = 1;
+            app.poll(&mut board);
+        }
+        board.periods = 3; // two deadlines missed
+        app.poll(&mut board);
+        let f = board.frames();
+        assert_eq!(f.len(), 1 + 1 + 10 + 40 + 1);
+        assert_eq!(f[1].output.command.as_array(), trim_command());
+        assert_eq!(f[1].output.step, 0);
+        assert_eq!(f[2].output.mode, Mode::Approach);
+        let last = f[f.len() - 1];
+        assert_eq!(last.output.mode, Mode::Breakaway);
+        assert_eq!(
+            last.output.breakaway_reason,
+            Some(BreakawayReason::MeasurementLost)
+        );
+        assert!(
+            last.output
+                .status
+                .contains(ibvs_core::controller::StatusFlags::OPEN_LOOP)
+        );
+        assert!(
+            last.link_status
+                .contains(LinkStatus::STALE | LinkStatus::FREE_RUNNING)
+        );
+        let l = last.link;
+        assert_eq!((l.timeouts, l.held_steps, l.deadline_missed), (1, 41, 2));
+        assert_eq!(l.stale_steps, 41 - LINK_TIMEOUT_PERIODS);
+        assert!(board.events.contains(&Event::LinkStale));
+        // The link comes back: recovered, still in (latched) breakaway.
+        board.send(11, input(11, ModeRequest::None));
+        board.periods = 1;
+        app.poll(&mut board);
+        let f = board.frames();
+        assert!(!f[0].link_status.contains(LinkStatus::STALE));
+        assert_eq!(f[0].output.mode, Mode::Breakaway);
+        assert_eq!(board.events.last(), Some(&Event::LinkRecovered));
+    }
+
+    #[test]
+    fn a_request_in_a_superseded_frame_is_not_lost() {
+        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut board = Mock::default();
+        board.send(1, input(1, ModeRequest::Engage));
+        board.send(2, input(2, ModeRequest::None));
+        board.periods = 1;
+        app.poll(&mut board);
+        // Two more in one period: the core sees camera frame 3 skipped.
+        board.send(3, input(3, ModeRequest::None));
+        board.send(4, input(4, ModeRequest::None));
+        board.periods = 1;
+        app.poll(&mut board);
+        let f = board.frames();
+        assert_eq!((f[0].output.mode, f[0].echo_seq), (Mode::Approach, Some(2)));
+        assert_eq!((f[1].echo_seq, f[1].counters.frames_dropped), (Some(4), 1));
+    }
+
+    #[test]
+    fn a_held_input_does_not_repeat_the_request() {
+        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut board = Mock::default();
+        board.send(1, input(1, ModeRequest::Engage));
+        board.periods = 1;
+        app.poll(&mut board);
+        board.send(2, input(2, ModeRequest::Reset));
+        board.periods = 1;
+        app.poll(&mut board);
+        board.send(3, input(3, ModeRequest::Engage));
+        for _ in 0..2 {
+            board.periods = 1;
+            app.poll(&mut board);
+        }
+        // Engaged again once, then the held input (Engage cleared) keeps it engaged.
+        let f = board.frames();
+        let modes: Vec<Mode> = f.iter().map(|d| d.output.mode).collect();
+        assert_eq!(
+            modes,
+            [
+                Mode::Approach,
+                Mode::Standby,
+                Mode::Approach,
+                Mode::Approach
+            ]
+        );
+        assert_eq!(
+            f[3].output.measurement_error,
+            Some(ibvs_core::measurement::MeasurementError::Repeated)
+        );
+    }
+
+    #[test]
+    fn never_panics_and_sends_only_valid_frames_on_random_bytes() {
+        // A deterministic pseudo-random byte stream (xorshift), with valid frames mixed in.
+        let (mut app, mut board) = lockstep();
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut seq = 0;
+        for round in 0..200 {
+            for _ in 0..(round % 37) * 7 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                board
+                    .rx
+                    .push_back((x >> 24) as u8 & if round % 3 == 0 { 0xFF } else { 0x7F });
+            }
+            if round % 4 == 0 {
+                board.rx.push_back(0);
+                seq += 1;
+                board.send(
+                    seq,
+                    ControllerInput {
+                        measurement: CameraMeasurement {
+                            seq,
+                            ..engage_input().measurement
+                        },
+                        ..engage_input()
+                    },
+                );
+            }
+            app.poll(&mut board);
+        }
+        for f in board.frames() {
+            assert!(f.output.command.as_array().iter().all(|c| c.is_finite()));
+        }
+        assert!(app.link_counters().frames_ok >= 40);
+        assert!(app.link_counters().rejected_frames() > 0);
+    }
+}

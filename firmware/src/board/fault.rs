@@ -1,0 +1,215 @@
+//! Fault handling: the panic handler and the HardFault handler leave the actuators in a safe
+//! state and record why.
+//!
+//! Place in the data flow: outside it. On a panic (which the application is built never to
+//! reach: no byte sequence can cause one) or a HardFault, with interrupts masked:
+//! 1. the reason (source file, line and message, or the faulting PC) is written to a
+//!    [`FaultRecord`] in `.uninit` RAM, which a reset does not clear: the next boot reports
+//!    it ([`take_previous`]: log line and `LinkStatus::PREVIOUS_PANIC` in every frame) and a
+//!    debugger can read it at `FAULT_RECORD`;
+//! 2. a command frame with the trim commands and `LinkStatus::PANIC` is written to USART1 by
+//!    polling (the actuator side holds trim on it);
+//! 3. the board finishes ([`super::selected::on_fault`]): QEMU logs the reason and exits with
+//!    status 1; the real board repeats the safe frame every control period, forever.
+//!
+//! Best effort: a fault inside the fault path (a second panic) skips to the halt; a fault
+//! before USART1 was enabled sends nothing; the record survives a reset but not a power loss.
+//!
+//! Invariant: nothing here allocates; the record is plain integers (any bit pattern is a
+//! valid value; the magic word and the checksum decide whether it means anything).
+
+use core::fmt::Write as _;
+use core::mem::MaybeUninit;
+use core::panic::PanicInfo;
+use core::sync::atomic::{AtomicBool, Ordering};
+
+use cortex_m_rt::{ExceptionFrame, exception};
+use ibvs_core::wire::{Downlink, LinkStatus, MAX_FRAME_LEN, encode_downlink};
+use stm32f4xx_hal::pac::USART1;
+
+use crate::app::trim_output;
+
+/// Marks a written record ("FAUL").
+const MAGIC: u32 = 0x4641_554C;
+/// Bytes of the message (and of the file name) kept.
+pub const TEXT_LEN: usize = 64;
+
+/// Why the firmware stopped, as recorded.
+#[derive(Clone, Copy)]
+#[repr(C)]
+pub struct FaultRecord {
+    magic: u32,
+    /// Source line of the panic, 0 for a HardFault.
+    pub line: u32,
+    /// Faulting program counter (HardFault), 0 for a panic.
+    pub pc: u32,
+    /// Source file of the panic (truncated, NUL-padded).
+    pub file: [u8; TEXT_LEN],
+    /// Panic message or fault name (truncated, NUL-padded).
+    pub message: [u8; TEXT_LEN],
+    check: u32,
+}
+
+impl FaultRecord {
+    const fn empty() -> Self {
+        Self {
+            magic: 0,
+            line: 0,
+            pc: 0,
+            file: [0; TEXT_LEN],
+            message: [0; TEXT_LEN],
+            check: 0,
+        }
+    }
+
+    fn checksum(&self) -> u32 {
+        let mut h = self.magic ^ self.line.rotate_left(7) ^ self.pc.rotate_left(13);
+        for &b in self.file.iter().chain(self.message.iter()) {
+            h = h.rotate_left(5) ^ u32::from(b);
+        }
+        h
+    }
+
+    /// A text field as a string (up to its first NUL; invalid UTF-8 gives "?").
+    pub fn text(field: &[u8]) -> &str {
+        let n = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+        core::str::from_utf8(&field[..n]).unwrap_or("?")
+    }
+}
+
+/// Truncating writer into a fixed field.
+struct Field<'a> {
+    buf: &'a mut [u8],
+    at: usize,
+}
+
+impl core::fmt::Write for Field<'_> {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        for &b in s.as_bytes() {
+            if let Some(slot) = self.buf.get_mut(self.at) {
+                *slot = b;
+                self.at += 1;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The record, in RAM that cortex-m-rt neither loads nor zeroes.
+// Note(unsafe): `link_section` only places the static in `.uninit` (see the module doc) and
+// `no_mangle` gives it a fixed symbol name for a debugger; no other symbol has that name.
+#[allow(unsafe_code)]
+#[unsafe(link_section = ".uninit.FAULT_RECORD")]
+#[unsafe(no_mangle)]
+static mut FAULT_RECORD: MaybeUninit<FaultRecord> = MaybeUninit::uninit();
+
+static IN_FAULT: AtomicBool = AtomicBool::new(false);
+
+fn store(record: &FaultRecord) {
+    // Note(unsafe): only the fault path writes the record, once (IN_FAULT), with interrupts
+    // masked on a single core: no other access can overlap. Volatile, so the write is not
+    // elided before the halt.
+    #[allow(unsafe_code)]
+    unsafe {
+        core::ptr::write_volatile(&raw mut FAULT_RECORD, MaybeUninit::new(*record));
+    }
+}
+
+/// The record of a fault before the last reset, if there is a valid one; clears it.
+pub fn take_previous() -> Option<FaultRecord> {
+    // Note(unsafe): called once at boot, before interrupts are enabled and before any fault
+    // path can run, so nothing else accesses the record. The RAM holds some bit pattern
+    // after reset (uninitialised to the language, concrete to the hardware); a
+    // `FaultRecord` is only integers, so any pattern is a value, and the magic word and the
+    // checksum reject the ones that are not a record.
+    #[allow(unsafe_code)]
+    let r = unsafe { core::ptr::read_volatile(&raw const FAULT_RECORD).assume_init() };
+    store(&FaultRecord::empty());
+    (r.magic == MAGIC && r.check == r.checksum()).then_some(r)
+}
+
+/// Writes `bytes` to USART1 by polling, whatever the state of the link driver.
+fn write_raw(bytes: &[u8]) {
+    // Note(unsafe): interrupts are masked and the main loop will never run again, so this
+    // is the only user of the USART registers from here on (single core).
+    #[allow(unsafe_code)]
+    let usart = unsafe { USART1::steal() };
+    if usart.cr1().read().ue().bit_is_clear() {
+        return;
+    }
+    for &b in bytes {
+        while usart.sr().read().txe().bit_is_clear() {}
+        usart.dr().write(|w| w.dr().set(u16::from(b)));
+    }
+}
+
+/// Sends the safe-state command frame: trim commands, `LinkStatus::PANIC`.
+pub fn send_safe_frame() {
+    let d = Downlink {
+        seq: u32::MAX,
+        link_status: LinkStatus(LinkStatus::PANIC),
+        output: trim_output(),
+        ..Downlink::default()
+    };
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    if let Ok(frame) = encode_downlink(&d, &mut buf) {
+        write_raw(frame);
+    }
+}
+
+fn fault(fill: impl FnOnce(&mut FaultRecord)) -> ! {
+    cortex_m::interrupt::disable();
+    if IN_FAULT.swap(true, Ordering::Relaxed) {
+        halt();
+    }
+    let mut r = FaultRecord::empty();
+    r.magic = MAGIC;
+    fill(&mut r);
+    r.check = r.checksum();
+    store(&r);
+    send_safe_frame();
+    super::selected::on_fault(&r)
+}
+
+/// Parks the core.
+pub fn halt() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(info: &PanicInfo<'_>) -> ! {
+    fault(|r| {
+        if let Some(loc) = info.location() {
+            r.line = loc.line();
+            let _ = Field {
+                buf: &mut r.file,
+                at: 0,
+            }
+            .write_str(loc.file());
+        }
+        let _ = write!(
+            Field {
+                buf: &mut r.message,
+                at: 0,
+            },
+            "{}",
+            info.message()
+        );
+    })
+}
+
+#[exception]
+#[allow(unsafe_code)] // Note(unsafe): cortex-m-rt requires the HardFault handler to be `unsafe fn`.
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    let pc = frame.pc();
+    fault(|r| {
+        r.pc = pc;
+        let _ = Field {
+            buf: &mut r.message,
+            at: 0,
+        }
+        .write_str("HardFault");
+    })
+}

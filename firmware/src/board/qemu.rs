@@ -1,0 +1,216 @@
+//! The `qemu` board: QEMU's `netduinoplus2` machine, an emulated STM32F405.
+//!
+//! Place in the data flow: start-up and logging for the processor-in-the-loop runs
+//! (`host_sim::pil`). QEMU 7.2 does not emulate the RCC, so there is no clock setup (the
+//! peripherals run as soon as they are enabled; SysTick runs at QEMU's 168 MHz SYSCLK). With
+//! `-icount shift=0` one instruction is one nanosecond of emulated time and TIM2, free-running
+//! at PSC = 0, counts it: [`Tim2Counter`] is an exact instruction counter.
+//!
+//! The semihosting command line (`-semihosting-config ...,arg=firmware,arg=WORD`) selects:
+//! - nothing: lockstep schedule (processor-in-the-loop);
+//! - `free-running`: the free-running schedule (SysTick at 50 Hz);
+//! - `self-test`: the power-on self-test only, its result as QEMU's exit status
+//!   (what `cargo run --target thumbv7em-none-eabihf` does, see `.cargo/config.toml`);
+//! - `bench`: print what a frame costs to decode and encode ([`crate::bench`]), exit 0;
+//! - `panic-test`: panic once the link is up, to test the fault path (`super::fault`).
+//!
+//! Logs are semihosting text on QEMU's stdout/stderr, never on the serial link (its own
+//! chardev). Invariant: no clock or RCC access on this path.
+
+use cortex_m_semihosting::{debug, hprintln};
+use ibvs_core::wire::CostUnit;
+use stm32f4xx_hal::pac;
+
+use super::McuBoard;
+use super::fault::{FaultRecord, halt};
+use crate::app::{App, CostCounter, Event, Schedule};
+use crate::{bench, one_step};
+
+/// The stack high-water mark, as text ("4628 B" or "unknown").
+struct StackMark;
+
+impl core::fmt::Display for StackMark {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match super::stack::used_bytes() {
+            Some(b) => write!(f, "{b} B"),
+            None => f.write_str("unknown"),
+        }
+    }
+}
+
+/// QEMU's SYSCLK for netduinoplus2, Hz: SysTick's clock with CLKSOURCE = processor.
+const CORE_HZ: u32 = 168_000_000;
+
+/// TIM2's counter: instructions executed under `-icount shift=0`.
+pub struct Tim2Counter;
+
+impl CostCounter for Tim2Counter {
+    const UNIT: CostUnit = CostUnit::Instructions;
+    fn now() -> u32 {
+        // Note(unsafe): a read of TIM2_CNT, a free-running counter: no side effect, no
+        // shared state; TIM2 is started in `start` before any read matters.
+        #[allow(unsafe_code)]
+        unsafe {
+            (*pac::TIM2::ptr()).cnt().read().bits()
+        }
+    }
+}
+
+/// The semihosting command line, as words (at most 128 bytes).
+struct CommandLine {
+    buf: [u8; 128],
+    len: usize,
+}
+
+impl CommandLine {
+    fn read() -> Self {
+        let mut buf = [0u8; 128];
+        // SYS_GET_CMDLINE's parameter block: buffer address and length (the host writes the
+        // length of the command line back into it).
+        let mut block = [buf.as_mut_ptr() as usize, buf.len() - 1];
+        // Note(unsafe): the host writes at most `block[1]` bytes and a NUL into `buf`, and the
+        // length into `block`; both live across the call and are passed as pointers derived
+        // from exclusive borrows, not otherwise used meanwhile.
+        #[allow(unsafe_code)]
+        let status = unsafe {
+            cortex_m_semihosting::syscall1(
+                cortex_m_semihosting::nr::GET_CMDLINE,
+                block.as_mut_ptr() as usize,
+            )
+        };
+        let len = if status == 0 {
+            buf.iter().position(|&b| b == 0).unwrap_or(buf.len())
+        } else {
+            0
+        };
+        Self { buf, len }
+    }
+
+    fn has(&self, word: &str) -> bool {
+        self.buf[..self.len]
+            .split(|&b| b == b' ')
+            .any(|w| w == word.as_bytes())
+    }
+}
+
+/// Start-up: self-test, timers, link, application.
+pub fn start() -> ! {
+    let args = CommandLine::read();
+    let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+        hprintln!("firmware: peripherals already taken");
+        debug::exit(debug::EXIT_FAILURE);
+        halt()
+    };
+    // TIM2 free-running at PSC = 0 over the full 32 bits: the instruction counter.
+    dp.TIM2.psc().write(|w| w.psc().set(0));
+    dp.TIM2.arr().write(|w| w.arr().set(u32::MAX));
+    dp.TIM2.cr1().write(|w| w.cen().set_bit());
+
+    match one_step::run() {
+        Ok(out) => {
+            if args.has("self-test") {
+                let c = out.command;
+                hprintln!(
+                    "firmware: one step ok: mode {:?}, elevator {} rad, throttle {}, aileron {} rad, rudder {} rad",
+                    out.mode,
+                    c.elevator_rad,
+                    c.throttle,
+                    c.aileron_rad,
+                    c.rudder_rad
+                );
+                debug::exit(debug::EXIT_SUCCESS);
+                halt()
+            }
+        }
+        Err(e) => {
+            hprintln!("firmware: one step FAILED: {}", e);
+            debug::exit(debug::EXIT_FAILURE);
+            halt()
+        }
+    }
+    if args.has("bench") {
+        let c = bench::measure::<Tim2Counter>();
+        hprintln!(
+            "firmware bench (instructions): decode measurement frame ({} B) {} ({} with the \
+             navigation at zero), of which CRC {}; encode command frame ({} B) {}; \
+             controller step {}",
+            c.measurement_frame_len,
+            c.decode_measurement,
+            c.decode_measurement_zero_nav,
+            c.crc_measurement,
+            c.command_frame_len,
+            c.encode_command,
+            c.step
+        );
+        hprintln!("firmware bench: stack high-water mark {}", StackMark);
+        debug::exit(debug::EXIT_SUCCESS);
+        halt()
+    }
+
+    let schedule = if args.has("free-running") {
+        Schedule::FreeRunning
+    } else {
+        Schedule::Lockstep
+    };
+    let previous = super::fault::take_previous();
+    if let Some(r) = &previous {
+        log_fault("before the last reset", r);
+    }
+    let link = super::usart1::init(dp.USART1, None);
+    if schedule == Schedule::FreeRunning && super::systick::start(cp.SYST, CORE_HZ).is_err() {
+        hprintln!("firmware: SysTick reload out of range");
+        debug::exit(debug::EXIT_FAILURE);
+        halt()
+    }
+    if args.has("panic-test") {
+        // Exercises the fault path (safe frame, record, exit 1) from a test; reachable only
+        // through QEMU's semihosting command line.
+        panic!("panic-test requested on the semihosting command line");
+    }
+    let app = match App::new(schedule, previous.is_some()) {
+        Ok(app) => app,
+        Err(e) => {
+            hprintln!("firmware: configuration rejected: {}", e);
+            debug::exit(debug::EXIT_FAILURE);
+            halt()
+        }
+    };
+    hprintln!(
+        "firmware: qemu board, {:?} schedule, link on USART1",
+        schedule
+    );
+    app.run(&mut McuBoard::<Tim2Counter>::new(link))
+}
+
+/// Logs an application event as a semihosting line.
+pub fn log(event: Event) {
+    match event {
+        Event::ModeChanged { mode, reason, step } => hprintln!(
+            "firmware: step {}: mode {:?} ({:?}); stack high-water mark {}",
+            step,
+            mode,
+            reason,
+            StackMark
+        ),
+        Event::LinkStale => hprintln!("firmware: link stale: navigation treated as invalid"),
+        Event::LinkRecovered => hprintln!("firmware: link recovered"),
+    }
+}
+
+fn log_fault(when: &str, r: &FaultRecord) {
+    hprintln!(
+        "firmware: FAULT {}: {} at {}:{} pc {:#010x}",
+        when,
+        FaultRecord::text(&r.message),
+        FaultRecord::text(&r.file),
+        r.line,
+        r.pc
+    );
+}
+
+/// The end of the fault path under QEMU: log and exit with status 1.
+pub fn on_fault(r: &FaultRecord) -> ! {
+    log_fault("(safe frame sent)", r);
+    debug::exit(debug::EXIT_FAILURE);
+    halt()
+}
