@@ -1,1 +1,871 @@
-//! Placeholder: being written.
+//! Processor-in-the-loop (PIL): the firmware runs inside QEMU's emulated STM32F405 and flies
+//! the simulated receiver over its real serial link.
+//!
+//! Place in the data flow: [`PilFlightComputer`] implements [`FlightComputer`], so
+//! [`crate::sim::run`] drives it exactly like the in-process controller: each step's
+//! [`ControllerInput`] goes out as one measurement frame ([`Uplink`], `ibvs_core::wire`) and
+//! the step's [`ControllerOutput`] comes back in the firmware's command frame ([`Downlink`]).
+//!
+//! ```text
+//! sim::run ─► PilFlightComputer::step ─► PilLink ─► unix socket ─► QEMU -serial (USART1)
+//!                                                                   └─► firmware (lockstep)
+//! sim::run ◄─ ControllerOutput ◄──────── Downlink ◄── unix socket ◄── USART1 TX
+//! ```
+//!
+//! [`PilLink`] spawns `qemu-system-arm -machine netduinoplus2 -cpu cortex-m4 -icount shift=0
+//! -display none -monitor none -semihosting-config enable=on,target=native,arg=firmware
+//! -serial unix:SOCKET -kernel ELF`. The link has its own chardev, a unix socket this process
+//! listens on; QEMU's stdout and stderr (the firmware's semihosting log) go to a log file
+//! beside it ([`PilLink::log_path`]). `-icount shift=0` makes the firmware's TIM2 an exact
+//! instruction counter, so the step costs it reports are deterministic.
+//!
+//! Link failures (lockstep): a step waits [`PilOptions::step_timeout`] for the command frame
+//! that echoes its measurement frame, retransmits the same frame (same sequence number: the
+//! firmware answers a repeat with its previous answer, without stepping again) up to
+//! [`PilOptions::retries`] times, then gives up. [`FlightComputer::step`] must return an
+//! output, so a failed step returns the **last output received** (the actuators hold their
+//! last command, as they would on a real bus), counts it
+//! ([`HostLinkCounters::failed_steps`]) and keeps the error ([`PilFlightComputer::last_error`]);
+//! [`PilFlightComputer::try_step`] returns it instead. Once QEMU has exited every step fails at
+//! once with [`PilError::FirmwareExited`].
+//!
+//! Fault injection for tests ([`PilOptions::faults`], a [`FaultPlan`]): corrupted bytes,
+//! dropped, delayed and duplicated frames, garbage bursts, applied to chosen measurement
+//! frames on their first transmission (never to retransmissions). Every byte written to the
+//! link is kept ([`PilLink::sent_bytes`]), so a test can replay it through the core's decoder
+//! and predict exactly what the firmware must have counted.
+//!
+//! Invariant: the child QEMU process is killed and reaped, and its temporary directory
+//! removed, when the link is dropped (set `IBVS_PIL_KEEP=1` to keep the directory and log).
+
+use std::collections::{BTreeMap, VecDeque};
+use std::fs::{self, File};
+use std::io::{self, Read, Write};
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ibvs_core::controller::{ControllerInput, ControllerOutput, Counters};
+use ibvs_core::measurement::SequenceTracker;
+use ibvs_core::wire::{
+    CostUnit, Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink, WireError,
+    encode_uplink,
+};
+use serde::Serialize;
+
+use crate::sim::FlightComputer;
+
+/// Environment variable naming a prebuilt firmware ELF ([`firmware_elf`] then builds nothing).
+pub const FIRMWARE_ELF_ENV: &str = "IBVS_FIRMWARE_ELF";
+
+/// Environment variable: when set to `1`, keep each run's temporary directory (socket, log).
+pub const KEEP_ENV: &str = "IBVS_PIL_KEEP";
+
+/// The cross target of the firmware.
+pub const FIRMWARE_TARGET: &str = "thumbv7em-none-eabihf";
+
+/// Why processor-in-the-loop failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PilError {
+    /// `cargo build` of the firmware failed (its stderr, last lines).
+    #[error("building the firmware failed: {0}")]
+    Build(String),
+    /// No firmware ELF at the path.
+    #[error("firmware ELF not found: {0}")]
+    ElfMissing(PathBuf),
+    /// QEMU could not be started.
+    #[error("starting {program}: {source}")]
+    Spawn {
+        /// The QEMU program.
+        program: String,
+        /// Why.
+        source: io::Error,
+    },
+    /// QEMU did not connect to the link's socket in time.
+    #[error("QEMU did not connect to the serial socket within {0:?}")]
+    ConnectTimeout(Duration),
+    /// The firmware sent no boot frame in time.
+    #[error("no boot frame from the firmware within {0:?}")]
+    NoBootFrame(Duration),
+    /// No command frame answered a measurement frame, retransmissions included.
+    #[error(
+        "no command frame for measurement frame {seq} within {timeout:?} ({attempts} attempts)"
+    )]
+    Timeout {
+        /// The measurement frame's sequence number.
+        seq: u32,
+        /// Wait per attempt.
+        timeout: Duration,
+        /// Transmissions.
+        attempts: u32,
+    },
+    /// QEMU exited (or closed the link).
+    #[error("the firmware exited ({status}); log {log}:\n{tail}")]
+    FirmwareExited {
+        /// Exit status, as text.
+        status: String,
+        /// The log file.
+        log: PathBuf,
+        /// Its last lines.
+        tail: String,
+    },
+    /// The firmware sent its panic frame (`LinkStatus::PANIC`: it stopped).
+    #[error("the firmware panicked (safe-state frame received); log {log}:\n{tail}")]
+    FirmwarePanicked {
+        /// The output it left the actuators at (trim commands).
+        output: Box<ControllerOutput>,
+        /// The log file.
+        log: PathBuf,
+        /// Its last lines (the recorded reason).
+        tail: String,
+    },
+    /// A measurement frame could not be encoded.
+    #[error("encoding a measurement frame: {0}")]
+    Encode(WireError),
+    /// Socket or file I/O.
+    #[error("PIL link I/O: {0}")]
+    Io(#[from] io::Error),
+}
+
+/// The firmware's schedule, chosen on its semihosting command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FirmwareSchedule {
+    /// One command frame per measurement frame (what [`PilFlightComputer`] needs).
+    #[default]
+    Lockstep,
+    /// The flight schedule: one command frame per 20 ms of emulated time (with `-icount
+    /// shift=0` and the firmware idling in WFI, emulated time follows real time).
+    FreeRunning,
+}
+
+/// One fault, applied to one measurement frame's first transmission.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Fault {
+    /// XOR `mask` into byte `index` (modulo the frame's length without its zero) of the
+    /// encoded frame. If that would make the byte zero (which would cut the frame in two),
+    /// the mask's lowest bit is flipped first.
+    CorruptByte {
+        /// Byte position in the frame.
+        index: usize,
+        /// Bits to flip (non-zero).
+        mask: u8,
+    },
+    /// Do not send the frame.
+    Drop,
+    /// Wait this long before sending it.
+    Delay(Duration),
+    /// Send these bytes just before it (with no zero at their end, they run into the frame
+    /// and take it with them).
+    GarbageBefore(Vec<u8>),
+    /// Send the frame twice.
+    Duplicate,
+}
+
+/// Faults by measurement-frame index (0 for the first frame [`PilLink::send_measurement`]
+/// sends, +1 per new frame; in lockstep, the step index).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FaultPlan {
+    by_frame: BTreeMap<u64, Vec<Fault>>,
+}
+
+impl FaultPlan {
+    /// No faults.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds `fault` on frame `frame`.
+    pub fn at(mut self, frame: u64, fault: Fault) -> Self {
+        self.by_frame.entry(frame).or_default().push(fault);
+        self
+    }
+
+    /// Faults on frame `frame`.
+    pub fn on(&self, frame: u64) -> &[Fault] {
+        self.by_frame.get(&frame).map_or(&[], Vec::as_slice)
+    }
+
+    /// Number of faults planned.
+    pub fn len(&self) -> usize {
+        self.by_frame.values().map(Vec::len).sum()
+    }
+
+    /// True when no fault is planned.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// How to run the firmware.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PilOptions {
+    /// The QEMU program (on `PATH` or a path).
+    pub qemu: PathBuf,
+    /// The firmware's schedule.
+    pub schedule: FirmwareSchedule,
+    /// Lockstep: wait per transmission for the answering command frame.
+    pub step_timeout: Duration,
+    /// Lockstep: retransmissions of a measurement frame after a timeout.
+    pub retries: u32,
+    /// Wait for QEMU to connect and the firmware to send its boot frame.
+    pub boot_timeout: Duration,
+    /// Faults to inject on the measurement frames.
+    pub faults: FaultPlan,
+    /// Extra words for the firmware's semihosting command line (tests: `panic-test`).
+    pub firmware_args: Vec<String>,
+}
+
+impl Default for PilOptions {
+    fn default() -> Self {
+        Self {
+            qemu: PathBuf::from("qemu-system-arm"),
+            schedule: FirmwareSchedule::Lockstep,
+            step_timeout: Duration::from_secs(2),
+            retries: 1,
+            boot_timeout: Duration::from_secs(20),
+            faults: FaultPlan::new(),
+            firmware_args: Vec::new(),
+        }
+    }
+}
+
+/// The host side's own link counts (the firmware's are in its command frames).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct HostLinkCounters {
+    /// Measurement frames written (new ones; retransmissions and duplicates not included).
+    pub frames_sent: u64,
+    /// Retransmissions after a timeout.
+    pub retransmissions: u64,
+    /// Waits for an answer that ended without it.
+    pub timeouts: u64,
+    /// Steps that returned the held output after a link failure.
+    pub failed_steps: u64,
+    /// Command frames that answered no pending measurement frame (late or duplicate).
+    pub unexpected_frames: u64,
+    /// Faults injected.
+    pub faults_injected: u64,
+    /// The receive side of the host: command frames accepted, rejected (corrupt,
+    /// oversize, malformed, wrong version), and their sequence gaps and repeats.
+    pub rx: LinkCounters,
+}
+
+/// Min / median / max of a cost over a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct CostSummary {
+    /// Unit of the figures.
+    #[serde(serialize_with = "serialize_unit")]
+    pub unit: CostUnit,
+    /// Smallest.
+    pub min: u32,
+    /// Median (upper median for an even count).
+    pub median: u32,
+    /// Largest.
+    pub max: u32,
+    /// Number of samples.
+    pub samples: usize,
+}
+
+fn serialize_unit<S: serde::Serializer>(u: &CostUnit, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(match u {
+        CostUnit::Unavailable => "unavailable",
+        CostUnit::Instructions => "instructions",
+        CostUnit::Cycles => "cycles",
+    })
+}
+
+impl CostSummary {
+    /// The summary of `samples` in `unit`; `None` when empty.
+    pub fn of(unit: CostUnit, samples: &[u32]) -> Option<Self> {
+        let mut s = samples.to_vec();
+        s.sort_unstable();
+        Some(Self {
+            unit,
+            min: *s.first()?,
+            median: s[s.len() / 2],
+            max: *s.last()?,
+            samples: s.len(),
+        })
+    }
+}
+
+/// What a PIL run measured.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct PilStats {
+    /// Steps asked for.
+    pub steps: u64,
+    /// `Controller::step` on the MCU (instructions under QEMU).
+    pub step_cost: Option<CostSummary>,
+    /// Decoding each measurement frame on the MCU.
+    pub decode_cost: Option<CostSummary>,
+    /// Encoding each command frame on the MCU.
+    pub encode_cost: Option<CostSummary>,
+    /// The firmware's link counters, as last reported.
+    pub firmware_link: LinkCounters,
+    /// The controller's counters, as last reported.
+    pub firmware_counters: Counters,
+    /// The host's own counts.
+    pub host: HostLinkCounters,
+}
+
+/// Finds the workspace's target directory: `CARGO_TARGET_DIR` or `<workspace>/target`.
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("target"))
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// Where `cargo build -p firmware --target thumbv7em-none-eabihf --release` puts the ELF.
+pub fn default_firmware_elf() -> PathBuf {
+    target_dir()
+        .join(FIRMWARE_TARGET)
+        .join("release")
+        .join("firmware")
+}
+
+/// The firmware ELF for PIL: the file named by `IBVS_FIRMWARE_ELF` if set; otherwise built
+/// now (incrementally, once per process) with `cargo build -p firmware --target
+/// thumbv7em-none-eabihf --release --target-dir <target>/pil-firmware`. The separate target
+/// directory means this works from inside `cargo test` (which holds the lock of the main
+/// one) and never uses an ELF older than the sources.
+pub fn firmware_elf() -> Result<PathBuf, PilError> {
+    if let Some(p) = std::env::var_os(FIRMWARE_ELF_ENV) {
+        let p = PathBuf::from(p);
+        return if p.is_file() {
+            Ok(p)
+        } else {
+            Err(PilError::ElfMissing(p))
+        };
+    }
+    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    BUILT
+        .get_or_init(|| build_firmware(&target_dir().join("pil-firmware")))
+        .clone()
+        .map_err(PilError::Build)
+}
+
+/// Builds the `qemu` firmware into `target_dir`; returns the ELF.
+pub fn build_firmware(target_dir: &Path) -> Result<PathBuf, String> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .current_dir(workspace_root())
+        .args([
+            "build",
+            "-p",
+            "firmware",
+            "--release",
+            "--target",
+            FIRMWARE_TARGET,
+        ])
+        .arg("--target-dir")
+        .arg(target_dir)
+        // Host-side flags would replace the target's `-Tlink.x` from .cargo/config.toml.
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| format!("running cargo: {e}"))?;
+    if !out.status.success() {
+        return Err(tail(&String::from_utf8_lossy(&out.stderr), 30));
+    }
+    let elf = target_dir
+        .join(FIRMWARE_TARGET)
+        .join("release")
+        .join("firmware");
+    if elf.is_file() {
+        Ok(elf)
+    } else {
+        Err(format!("cargo succeeded but {} is missing", elf.display()))
+    }
+}
+
+fn tail(text: &str, lines: usize) -> String {
+    let all: Vec<&str> = text.lines().collect();
+    all[all.len().saturating_sub(lines)..].join("\n")
+}
+
+/// A unique temporary directory for one run.
+fn run_dir() -> io::Result<PathBuf> {
+    static N: AtomicU32 = AtomicU32::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "ibvs-pil-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = fs::remove_dir_all(&dir);
+    fs::create_dir_all(&dir)?;
+    Ok(dir)
+}
+
+/// The serial link to a firmware running in QEMU: frames out and in, faults, counts.
+#[derive(Debug)]
+pub struct PilLink {
+    child: Child,
+    exited: Option<ExitStatus>,
+    stream: UnixStream,
+    dir: PathBuf,
+    log: PathBuf,
+    decoder: FrameDecoder,
+    rx_buf: VecDeque<u8>,
+    rx_seq: SequenceTracker,
+    host: HostLinkCounters,
+    faults: FaultPlan,
+    frame_index: u64,
+    last_frame: Vec<u8>,
+    sent: Vec<u8>,
+    boot: Downlink,
+}
+
+impl Drop for PilLink {
+    fn drop(&mut self) {
+        if self.exited.is_none() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
+            let _ = fs::remove_dir_all(&self.dir);
+        }
+    }
+}
+
+impl PilLink {
+    /// Starts QEMU with `elf` and waits for the firmware's boot frame.
+    pub fn spawn(elf: &Path, opts: &PilOptions) -> Result<Self, PilError> {
+        if !elf.is_file() {
+            return Err(PilError::ElfMissing(elf.to_path_buf()));
+        }
+        let dir = run_dir()?;
+        let socket = dir.join("link.sock");
+        let log = dir.join("qemu.log");
+        let listener = UnixListener::bind(&socket)?;
+        listener.set_nonblocking(true)?;
+        let log_file = File::create(&log)?;
+        let mut semihosting = String::from("enable=on,target=native,arg=firmware");
+        if opts.schedule == FirmwareSchedule::FreeRunning {
+            semihosting.push_str(",arg=free-running");
+        }
+        for word in &opts.firmware_args {
+            semihosting.push_str(",arg=");
+            semihosting.push_str(word);
+        }
+        let program = opts.qemu.display().to_string();
+        let child = Command::new(&opts.qemu)
+            .args(["-machine", "netduinoplus2", "-cpu", "cortex-m4"])
+            .args(["-icount", "shift=0", "-display", "none", "-monitor", "none"])
+            .args(["-semihosting-config", &semihosting])
+            .arg("-serial")
+            .arg(format!("unix:{}", socket.display()))
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(log_file.try_clone()?)
+            .stderr(log_file)
+            .spawn()
+            .map_err(|source| PilError::Spawn { program, source })?;
+        let mut link = Self {
+            child,
+            exited: None,
+            // Replaced below once QEMU connects; a placeholder pair keeps `Drop` simple.
+            stream: UnixStream::pair()?.0,
+            dir,
+            log,
+            decoder: FrameDecoder::new(),
+            rx_buf: VecDeque::new(),
+            rx_seq: SequenceTracker::default(),
+            host: HostLinkCounters::default(),
+            faults: opts.faults.clone(),
+            frame_index: 0,
+            last_frame: Vec::new(),
+            sent: Vec::new(),
+            boot: Downlink::default(),
+        };
+        let deadline = Instant::now() + opts.boot_timeout;
+        link.stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    link.check_alive()?;
+                    if Instant::now() > deadline {
+                        return Err(PilError::ConnectTimeout(opts.boot_timeout));
+                    }
+                    thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(e.into()),
+            }
+        };
+        link.stream.set_nonblocking(false)?;
+        let remaining = deadline.saturating_duration_since(Instant::now());
+        match link.recv(remaining)? {
+            Some(d) if d.link_status.contains(LinkStatus::BOOT) => link.boot = d,
+            Some(d) if d.link_status.contains(LinkStatus::PANIC) => {
+                return Err(link.panicked(&d));
+            }
+            _ => return Err(PilError::NoBootFrame(opts.boot_timeout)),
+        }
+        Ok(link)
+    }
+
+    /// The error for a panic frame, once QEMU has finished (so the log is complete).
+    fn panicked(&mut self, d: &Downlink) -> PilError {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while self.exited.is_none() && Instant::now() < deadline {
+            self.exited = self.child.try_wait().ok().flatten();
+            thread::sleep(Duration::from_millis(10));
+        }
+        PilError::FirmwarePanicked {
+            output: Box::new(d.output),
+            log: self.log.clone(),
+            tail: tail(&self.log_text(), 20),
+        }
+    }
+
+    /// QEMU's exit status, once it has exited.
+    pub fn exit_status(&mut self) -> Option<ExitStatus> {
+        if self.exited.is_none() {
+            self.exited = self.child.try_wait().ok().flatten();
+        }
+        self.exited
+    }
+
+    /// The firmware's boot frame.
+    pub fn boot_frame(&self) -> &Downlink {
+        &self.boot
+    }
+
+    /// The file holding QEMU's stdout and stderr (the firmware's semihosting log).
+    pub fn log_path(&self) -> &Path {
+        &self.log
+    }
+
+    /// The log so far.
+    pub fn log_text(&self) -> String {
+        fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// Every byte written to the link so far, faults included.
+    pub fn sent_bytes(&self) -> &[u8] {
+        &self.sent
+    }
+
+    /// The host's counts.
+    pub fn host_counters(&self) -> &HostLinkCounters {
+        &self.host
+    }
+
+    /// Returns `FirmwareExited` if QEMU has exited.
+    fn check_alive(&mut self) -> Result<(), PilError> {
+        if self.exited.is_none() {
+            self.exited = self.child.try_wait()?;
+        }
+        match self.exited {
+            None => Ok(()),
+            Some(status) => Err(self.exited_error(status)),
+        }
+    }
+
+    fn exited_error(&self, status: ExitStatus) -> PilError {
+        PilError::FirmwareExited {
+            status: status.to_string(),
+            log: self.log.clone(),
+            tail: tail(&self.log_text(), 20),
+        }
+    }
+
+    /// Writes raw bytes to the link (recorded in [`PilLink::sent_bytes`]).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        self.check_alive()?;
+        self.stream.write_all(bytes)?;
+        self.stream.flush()?;
+        self.sent.extend_from_slice(bytes);
+        Ok(())
+    }
+
+    /// Encodes and sends a new measurement frame, applying the faults planned for it.
+    pub fn send_measurement(&mut self, up: &Uplink) -> Result<(), PilError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_uplink(up, &mut buf)
+            .map_err(PilError::Encode)?
+            .to_vec();
+        self.last_frame.clone_from(&frame);
+        let index = self.frame_index;
+        self.frame_index += 1;
+        self.host.frames_sent += 1;
+        let faults = self.faults.on(index).to_vec();
+        self.host.faults_injected += faults.len() as u64;
+        let mut wire = frame;
+        let (mut send, mut twice) = (true, false);
+        for f in &faults {
+            match f {
+                Fault::CorruptByte { index, mask } => {
+                    let body = wire.len() - 1;
+                    let i = index % body;
+                    let mut m = *mask;
+                    if wire[i] ^ m == 0 {
+                        m ^= 1;
+                    }
+                    wire[i] ^= m;
+                }
+                Fault::Drop => send = false,
+                Fault::Delay(d) => thread::sleep(*d),
+                Fault::GarbageBefore(g) => self.send_raw(g)?,
+                Fault::Duplicate => twice = true,
+            }
+        }
+        if send {
+            self.send_raw(&wire)?;
+            if twice {
+                self.send_raw(&wire)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends the last measurement frame again, unchanged (a retransmission).
+    pub fn resend(&mut self) -> Result<(), PilError> {
+        let frame = self.last_frame.clone();
+        self.host.retransmissions += 1;
+        self.send_raw(&frame)
+    }
+
+    /// The next command frame within `timeout` (`None` when none came). Rejected frames are
+    /// counted in [`HostLinkCounters::rx`] and skipped.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Option<Downlink>, PilError> {
+        let deadline = Instant::now() + timeout;
+        let mut chunk = [0u8; 512];
+        loop {
+            while let Some(b) = self.rx_buf.pop_front() {
+                let Some(r) = self.decoder.feed(b) else {
+                    continue;
+                };
+                match r.and_then(|p| p.downlink()) {
+                    Ok(d) => {
+                        self.host.rx.count_sequence(self.rx_seq.observe(d.seq));
+                        return Ok(Some(d));
+                    }
+                    Err(e) => self.host.rx.count(e),
+                }
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return Ok(None);
+            }
+            self.stream
+                .set_read_timeout(Some((deadline - now).max(Duration::from_micros(100))))?;
+            match self.stream.read(&mut chunk) {
+                Ok(0) => {
+                    let status = self.child.wait()?;
+                    self.exited = Some(status);
+                    return Err(self.exited_error(status));
+                }
+                Ok(n) => self.rx_buf.extend(&chunk[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    return Ok(None);
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    /// Every command frame arriving within `window`.
+    pub fn drain(&mut self, window: Duration) -> Result<Vec<Downlink>, PilError> {
+        let deadline = Instant::now() + window;
+        let mut out = Vec::new();
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv(left)? {
+                Some(d) => out.push(d),
+                None => return Ok(out),
+            }
+        }
+    }
+
+    /// Stops QEMU; returns its log.
+    pub fn shutdown(mut self) -> String {
+        if self.exited.is_none() {
+            let _ = self.child.kill();
+            self.exited = self.child.wait().ok();
+        }
+        self.log_text()
+    }
+}
+
+/// The firmware in QEMU as a [`FlightComputer`] (lockstep).
+#[derive(Debug)]
+pub struct PilFlightComputer {
+    link: PilLink,
+    opts: PilOptions,
+    next_seq: u32,
+    last_output: ControllerOutput,
+    last_error: Option<PilError>,
+    history: Vec<Downlink>,
+    steps: u64,
+}
+
+impl PilFlightComputer {
+    /// Starts the firmware at `elf` in QEMU with the default options (lockstep, no faults).
+    pub fn spawn(elf: &Path) -> Result<Self, PilError> {
+        Self::spawn_with(elf, PilOptions::default())
+    }
+
+    /// Starts the firmware at `elf` with `opts` (the schedule is forced to lockstep).
+    pub fn spawn_with(elf: &Path, mut opts: PilOptions) -> Result<Self, PilError> {
+        opts.schedule = FirmwareSchedule::Lockstep;
+        let link = PilLink::spawn(elf, &opts)?;
+        let last_output = link.boot_frame().output;
+        Ok(Self {
+            link,
+            opts,
+            next_seq: 1,
+            last_output,
+            last_error: None,
+            history: Vec::new(),
+            steps: 0,
+        })
+    }
+
+    /// One step over the link: the command frame answering `input`, or why there is none.
+    pub fn try_step(&mut self, input: &ControllerInput) -> Result<Downlink, PilError> {
+        let seq = self.next_seq;
+        self.next_seq = self.next_seq.wrapping_add(1);
+        self.link.send_measurement(&Uplink { seq, input: *input })?;
+        let timeout = self.opts.step_timeout;
+        for attempt in 0..=self.opts.retries {
+            if attempt > 0 {
+                self.link.resend()?;
+            }
+            let deadline = Instant::now() + timeout;
+            loop {
+                let left = deadline.saturating_duration_since(Instant::now());
+                match self.link.recv(left)? {
+                    None => {
+                        self.link.host.timeouts += 1;
+                        break;
+                    }
+                    Some(d) if d.link_status.contains(LinkStatus::PANIC) => {
+                        return Err(self.link.panicked(&d));
+                    }
+                    Some(d) if d.echo_seq == Some(seq) => {
+                        self.last_output = d.output;
+                        self.history.push(d);
+                        return Ok(d);
+                    }
+                    Some(_) => self.link.host.unexpected_frames += 1,
+                }
+            }
+        }
+        Err(PilError::Timeout {
+            seq,
+            timeout,
+            attempts: self.opts.retries + 1,
+        })
+    }
+
+    /// The error of the last failed step, if any.
+    pub fn last_error(&self) -> Option<&PilError> {
+        self.last_error.as_ref()
+    }
+
+    /// Every command frame received for a step, in order (retransmitted answers included
+    /// once, as the answer).
+    pub fn history(&self) -> &[Downlink] {
+        &self.history
+    }
+
+    /// The link (sent bytes, log, host counters).
+    pub fn link(&self) -> &PilLink {
+        &self.link
+    }
+
+    /// What the run measured so far.
+    pub fn stats(&self) -> PilStats {
+        let unit = self
+            .history
+            .last()
+            .map_or(CostUnit::Unavailable, |d| d.cost.unit);
+        // Retransmitted answers repeat a step's figures: count each step once.
+        let fresh: Vec<&Downlink> = self
+            .history
+            .iter()
+            .filter(|d| !d.link_status.contains(LinkStatus::RETRANSMIT))
+            .collect();
+        let costs = |f: fn(&Downlink) -> u32| -> Vec<u32> { fresh.iter().map(|d| f(d)).collect() };
+        let last = self.history.last();
+        PilStats {
+            steps: self.steps,
+            step_cost: CostSummary::of(unit, &costs(|d| d.cost.step)),
+            decode_cost: CostSummary::of(unit, &costs(|d| d.cost.decode)),
+            // The first frame carries the boot frame's encoding cost; all are command frames.
+            encode_cost: CostSummary::of(unit, &costs(|d| d.cost.encode_prev)),
+            firmware_link: last.map(|d| d.link).unwrap_or_default(),
+            firmware_counters: last.map(|d| d.counters).unwrap_or_default(),
+            host: self.link.host,
+        }
+    }
+
+    /// Stops QEMU; returns the statistics and the firmware's log.
+    pub fn shutdown(self) -> (PilStats, String) {
+        let stats = self.stats();
+        (stats, self.link.shutdown())
+    }
+}
+
+impl FlightComputer for PilFlightComputer {
+    /// One lockstep step; on a link failure the last output received is returned (held),
+    /// the failure counted and kept (see the module doc).
+    fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
+        self.steps += 1;
+        match self.try_step(input) {
+            Ok(d) => d.output,
+            Err(e) => {
+                self.link.host.failed_steps += 1;
+                self.last_error = Some(e);
+                self.last_output
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summarises_costs() {
+        let s = CostSummary::of(CostUnit::Instructions, &[5, 1, 9, 3]).expect("samples");
+        assert_eq!((s.min, s.median, s.max, s.samples), (1, 5, 9, 4));
+        assert!(CostSummary::of(CostUnit::Instructions, &[]).is_none());
+    }
+
+    #[test]
+    fn plans_faults_by_frame() {
+        let p = FaultPlan::new()
+            .at(3, Fault::Drop)
+            .at(3, Fault::Duplicate)
+            .at(7, Fault::Delay(Duration::from_millis(1)));
+        assert_eq!(p.on(3), [Fault::Drop, Fault::Duplicate]);
+        assert!(p.on(4).is_empty());
+        assert_eq!(p.len(), 3);
+    }
+
+    #[test]
+    fn a_missing_elf_is_named() {
+        let e = PilLink::spawn(Path::new("/nonexistent/firmware"), &PilOptions::default());
+        assert!(matches!(e, Err(PilError::ElfMissing(_))));
+    }
+}
