@@ -1,25 +1,31 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace on a fresh machine, installing what it needs first.
 #
-#   1. the Cortex-M4F target and QEMU (Debian's qemu-system-arm);
-#   2. a cross build of the flight-computer binary: the core links for the STM32F405 with
-#      no allocator (a use of `alloc` would fail this link);
-#   3. that binary run in QEMU's netduinoplus2 (an emulated STM32F405): it steps the
-#      controller once and exits through semihosting with 0 only if the step was right;
+#   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
+#      fault) and QEMU (Debian's qemu-system-arm);
+#   2. both firmware boards cross-built: the core links for the STM32F405 with no allocator
+#      (a use of `alloc` would fail this link);
+#   3. the qemu board run in QEMU's netduinoplus2 (an emulated STM32F405): its power-on
+#      self-test steps the controller once and exits 0 only if the step was right;
 #   4. formatting check;
-#   5. every test, benchmark (run once, as a test) and doc test of the workspace, on the host.
+#   5. every test, benchmark (run once, as a test) and doc test of the workspace on the host,
+#      the processor-in-the-loop tests flying the ELF of step 2 inside QEMU.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 rustup target add thumbv7em-none-eabihf
 rustup component add rustfmt
+command -v flip-link >/dev/null || cargo install flip-link --locked
 if ! command -v qemu-system-arm >/dev/null; then
     apt-get update
     apt-get install -y qemu-system-arm
 fi
 
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release
+cargo build --locked -p firmware --target thumbv7em-none-eabihf --release \
+    --no-default-features --features f405 --target-dir target/f405
 timeout 120 cargo run --locked -p firmware --target thumbv7em-none-eabihf --release
 cargo fmt --all -- --check
+export IBVS_FIRMWARE_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
 cargo test --locked --workspace --all-targets
 cargo test --locked --workspace --doc

@@ -5,7 +5,7 @@
 //! host-sim gains     [--json] [--write-core PATH]
 //! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
 //!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
-//!                    [--json] [--out DIR] [--no-files]
+//!                    [--json] [--out DIR] [--no-files] [--pil [--firmware ELF]]
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
 //! host-sim paper     [--out DIR] [--seeds N]
@@ -24,8 +24,8 @@ use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
-use host_sim::{output, paper, plot};
-use ibvs_core::Controller;
+use host_sim::{output, paper, pil, plot};
+use ibvs_core::{Controller, ControllerConfig};
 
 #[derive(Parser)]
 #[command(
@@ -96,6 +96,13 @@ enum Command {
         /// Write no files.
         #[arg(long)]
         no_files: bool,
+        /// Processor in the loop: fly the controller inside QEMU's emulated STM32F405 over
+        /// the serial link (adds `step_instructions` and link counts to `--json`).
+        #[arg(long)]
+        pil: bool,
+        /// Firmware ELF for `--pil` (default: build it, or `IBVS_FIRMWARE_ELF`).
+        #[arg(long, value_name = "PATH", requires = "pil")]
+        firmware: Option<PathBuf>,
     },
     /// List the built-in scenarios.
     Scenarios,
@@ -156,6 +163,8 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             json,
             out,
             no_files,
+            pil,
+            firmware,
         } => {
             let mut f = ScenarioFile::load(&scenario)?;
             if let Some(c) = controller {
@@ -181,7 +190,12 @@ fn run(cli: Cli) -> Result<(), AnyError> {
                 f.duration_s = t;
             }
             f.validate()?;
-            dock(&f, json, (!no_files).then_some(out))
+            let computer = if pil {
+                Computer::Pil(firmware)
+            } else {
+                Computer::InProcess
+            };
+            dock(&f, computer, json, (!no_files).then_some(out))
         }
         Command::Scenarios => {
             for (name, description, _) in PRESETS {
@@ -266,9 +280,51 @@ fn write_run(dir: &Path, run: &Run) -> Result<(), AnyError> {
     Ok(())
 }
 
-fn dock(f: &ScenarioFile, json: bool, out: Option<PathBuf>) -> Result<(), AnyError> {
-    let mut controller = Controller::new(f.controller_config())?;
-    let run = sim::run(&f.scenario(), &mut controller)?;
+/// Where the controller runs.
+enum Computer {
+    /// `ibvs_core::Controller` in this process.
+    InProcess,
+    /// The firmware in QEMU (optionally a given ELF).
+    Pil(Option<PathBuf>),
+}
+
+fn dock(
+    f: &ScenarioFile,
+    computer: Computer,
+    json: bool,
+    out: Option<PathBuf>,
+) -> Result<(), AnyError> {
+    let cfg = f.controller_config();
+    let scenario = f.scenario();
+    let (run, pil) = match computer {
+        Computer::InProcess => (sim::run(&scenario, &mut Controller::new(cfg)?)?, None),
+        Computer::Pil(elf) => {
+            // The firmware flies its built-in configuration; a scenario that changes the
+            // controller (law, gains, believed camera position) cannot be flown on it yet.
+            if cfg != ControllerConfig::default() {
+                return Err(format!(
+                    "--pil: scenario {:?} changes the controller configuration (law, gains or camera \
+                     belief), but the firmware flies its built-in default",
+                    f.name
+                )
+                .into());
+            }
+            let elf = match elf {
+                Some(p) => p,
+                None => pil::firmware_elf()?,
+            };
+            let mut fc = pil::PilFlightComputer::spawn(&elf)?;
+            let run = sim::run(&scenario, &mut fc)?;
+            let failure = fc.last_error().map(ToString::to_string);
+            let (stats, log) = fc.shutdown();
+            if let Some(e) = failure {
+                return Err(
+                    format!("--pil: the serial link failed: {e}\nfirmware log:\n{log}").into(),
+                );
+            }
+            (run, Some(stats))
+        }
+    };
     if let Some(dir) = &out {
         write_run(dir, &run)?;
         eprintln!(
@@ -278,9 +334,29 @@ fn dock(f: &ScenarioFile, json: bool, out: Option<PathBuf>) -> Result<(), AnyErr
     }
     let s = &run.summary;
     if json {
-        println!("{}", serde_json::to_string(s)?);
+        let mut v = serde_json::to_value(s)?;
+        if let (Some(stats), Some(obj)) = (&pil, v.as_object_mut()) {
+            let cost = stats
+                .step_cost
+                .ok_or("--pil: the firmware reported no step cost")?;
+            obj.insert(
+                "step_instructions".into(),
+                serde_json::json!({ "min": cost.min, "median": cost.median, "max": cost.max }),
+            );
+            obj.insert(
+                "link".into(),
+                serde_json::json!({ "firmware": stats.firmware_link, "host": stats.host }),
+            );
+        }
+        println!("{v}");
     } else {
         println!("{}", output::one_line(s));
+        if let Some(cost) = pil.as_ref().and_then(|p| p.step_cost) {
+            println!(
+                "step on the MCU: {} / {} / {} instructions (min / median / max over {} steps)",
+                cost.min, cost.median, cost.max, cost.samples
+            );
+        }
     }
     Ok(())
 }

@@ -247,3 +247,26 @@ fn paper_writes_figures_data_and_the_summary_table() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn dock_pil_reports_the_step_cost_on_the_mcu_and_refuses_a_changed_configuration() {
+    let v = json(&["dock", "--pil", "--json", "--no-files"]);
+    assert_eq!(v["outcome"], "docked", "{v}");
+    let cost = &v["step_instructions"];
+    let (min, median, max) = (
+        cost["min"].as_u64().unwrap(),
+        cost["median"].as_u64().unwrap(),
+        cost["max"].as_u64().unwrap(),
+    );
+    assert!(0 < min && min <= median && median <= max, "{cost}");
+    assert_eq!(v["link"]["host"]["failed_steps"], 0, "{v}");
+    let (ok, _, stderr) = host_sim(&[
+        "dock",
+        "--pil",
+        "--scenario",
+        "paper-bow-wave",
+        "--no-files",
+    ]);
+    assert!(!ok);
+    assert!(stderr.contains("built-in default"), "{stderr}");
+}
