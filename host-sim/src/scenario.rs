@@ -102,6 +102,9 @@ pub struct CameraSection {
     /// True minus assumed camera position, receiver body axes, m: the controller believes the
     /// camera is at the probe tip minus this.
     pub mount_error_m: [f64; 3],
+    /// Error of the camera's boresight pitch, true minus assumed, degrees: the controller
+    /// assumes the boresight is level at trim; positive points it further down.
+    pub mount_pitch_error_deg: f64,
     /// Pixel noise on each LED centroid (1 sigma), px.
     pub pixel_noise_px: f64,
     /// Frames between capture and delivery.
@@ -174,6 +177,7 @@ impl Default for ScenarioFile {
             camera: CameraSection {
                 model: CameraModel::Led,
                 mount_error_m: [0.0; 3],
+                mount_pitch_error_deg: 0.0,
                 pixel_noise_px: 0.5,
                 latency_frames: 1,
                 rate_hz: 50.0,
@@ -378,6 +382,13 @@ impl ScenarioFile {
         if let Some(s) = self.turbulence.sigma_mps {
             range("turbulence.sigma_mps", s, 0.0, 10.0, "0..=10")?;
         }
+        range(
+            "camera.mount_pitch_error_deg",
+            self.camera.mount_pitch_error_deg,
+            -10.0,
+            10.0,
+            "-10..=10",
+        )?;
         for (v, key) in self.camera.mount_error_m.iter().zip([
             "camera.mount_error_m[0]",
             "camera.mount_error_m[1]",
@@ -515,6 +526,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("forward"), "{e}");
+    }
+
+    #[test]
+    fn a_pitch_error_moves_the_true_camera_only() {
+        let f = ScenarioFile::parse("[camera]\nmount_pitch_error_deg = 2.0\n", "pitch").unwrap();
+        assert!((f.scenario().camera_pitch_error_rad - 2f64.to_radians()).abs() < 1e-12);
+        assert_eq!(
+            f.controller_config(),
+            ControllerConfig::default(),
+            "the controller does not know"
+        );
+        let e = ScenarioFile::parse("[camera]\nmount_pitch_error_deg = 20.0\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("mount_pitch_error_deg"), "{e}");
     }
 
     #[test]

@@ -80,6 +80,8 @@ pub struct Scenario {
     pub camera: CameraChoice,
     /// True camera position (the probe tip, paper Assumption 3), body axes, m.
     pub camera_body_m: Vector3<f64>,
+    /// True boresight pitch minus the level-at-trim mount the controller assumes, rad.
+    pub camera_pitch_error_rad: f64,
     /// Probe tip, body axes, m.
     pub probe_tip_body_m: Vector3<f64>,
     /// RMS gust speed, m/s (0: calm).
@@ -118,6 +120,7 @@ impl Scenario {
             hose: None,
             camera: CameraChoice::Ideal(CameraParams::default()),
             camera_body_m: Vector3::from(PROBE_TIP_BODY_M),
+            camera_pitch_error_rad: 0.0,
             probe_tip_body_m: Vector3::from(PROBE_TIP_BODY_M),
             turbulence_sigma_mps: 0.0,
             wake: None,
@@ -145,6 +148,7 @@ impl Scenario {
                 }),
             },
             turbulence_sigma_mps: f.sigma_mps(),
+            camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
             wake: f.tanker_wake.enabled.then(WakeParams::default),
             bow_wave: f.bow_wave.enabled,
             ..Self::ideal()
@@ -288,7 +292,7 @@ pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimErr
         camera,
         mount: Mount {
             position_body_m: s.camera_body_m,
-            pitch_down_rad: trim.theta_rad,
+            pitch_down_rad: trim.theta_rad + s.camera_pitch_error_rad,
         },
         gusts,
         wake,
