@@ -435,10 +435,13 @@ impl ScenarioFile {
 
     /// The controller's configuration for this scenario.
     pub fn controller_config(&self) -> ControllerConfig {
-        let mut cfg = ControllerConfig::default();
-        cfg.law = match self.controller {
+        let law = match self.controller {
             Law::Ibvs => OuterLaw::Ibvs,
             Law::Pbvs => OuterLaw::Pbvs,
+        };
+        let mut cfg = ControllerConfig {
+            law,
+            ..ControllerConfig::default()
         };
         let g = &mut cfg.ibvs;
         let k = self.gains.k.map(|v| v as f32);
