@@ -24,7 +24,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map_err(|e| format!("copying {}: {e}", memory_x.display()))?;
         println!("cargo:rustc-link-search={}", out.display());
         if env::var_os("CARGO_FEATURE_F405").is_some() {
-            println!("cargo:rustc-link-arg=-Tdefmt.x");
+            // The flight binary only: the link-time check (`nopanic`) does not use defmt.
+            println!("cargo:rustc-link-arg-bin=firmware=-Tdefmt.x");
         }
     }
     Ok(())

@@ -8,6 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::num::{INF_BITS, abs_bits, max_to, min_to};
+
 /// Absolute commands to the receiver's surfaces and engine.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -82,16 +84,20 @@ pub struct Saturation {
 
 impl ActuatorLimits {
     /// Clamps `requested` into the limits; a non-finite component becomes `fallback`'s
-    /// (itself clamped).
+    /// (itself clamped). The limits must be finite (a validated configuration's are).
+    #[inline]
     pub fn saturate(&self, requested: [f32; 4], fallback: [f32; 4]) -> ([f32; 4], Saturation) {
         let mut out = [0.0; 4];
         let mut sat = Saturation::default();
         for i in 0..4 {
             let (lo, hi) = (self.min[i], self.max[i]);
             let v = requested[i];
-            out[i] = if !v.is_finite() {
+            out[i] = if v <= hi && v >= lo {
+                // Inside the limits (and so finite): the common case, two comparisons.
+                v
+            } else if abs_bits(v) >= INF_BITS {
                 sat.non_finite = true;
-                fallback[i].max(lo).min(hi)
+                min_to(max_to(fallback[i], lo), hi)
             } else if v > hi {
                 sat.side[i] = 1;
                 hi

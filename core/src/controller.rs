@@ -14,20 +14,19 @@
 //! Invariants: `step` never panics and returns finite commands inside the actuator limits
 //! for every input (property-tested in `tests/properties.rs`).
 
-use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::{ActuatorCommand, Saturation};
-use crate::config::{ConfigError, ControllerConfig, OuterLaw, trim_command};
+use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw, trim_command};
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::gains::{self, CONTROL_PERIOD_S};
 use crate::inner::{Channel, EngineEstimate};
 use crate::kinematics::{lever_arm_lat, lever_arm_lon};
 use crate::measurement::{
-    CameraMeasurement, ImageFeature, MeasurementError, SequenceCheck, SequenceTracker,
+    CameraMeasurement, ImageFeature, LimitBits, MeasurementError, SequenceCheck, SequenceTracker,
 };
-use crate::mode::{BreakawayReason, Mode, ModeInputs, ModeMachine, ModeRequest};
-use crate::nav::{NavError, NavSample};
+use crate::mode::{BreakawayReason, Mode, ModeInputs, ModeLimits, ModeMachine, ModeRequest};
+use crate::nav::{EnvelopeBits, NavError, NavSample};
 use crate::outer::{self, OuterOutput};
 
 /// Everything the controller reads in one step.
@@ -136,6 +135,8 @@ impl Counters {
     }
 }
 
+/// Adds one to `c` (saturating) when `when`.
+#[inline(always)]
 fn bump(c: &mut u32, when: bool) {
     if when {
         *c = c.saturating_add(1);
@@ -166,10 +167,46 @@ pub struct ControllerOutput {
     pub step: u32,
 }
 
+/// What the step needs from the configuration, derived once at construction (the step
+/// never re-derives or re-validates anything that depends on the configuration alone).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Derived {
+    /// The navigation envelope as bit patterns.
+    envelope: EnvelopeBits,
+    /// The measurement limits as bit patterns.
+    measurement: LimitBits,
+    /// The mode logic's limits at the control period.
+    modes: ModeLimits,
+    /// Largest change of the desired velocity per step, each axis, m/s.
+    slew_step_mps: f32,
+    /// Throttle of an open-loop breakaway (trim minus the cut).
+    open_loop_throttle: f32,
+}
+
+impl Derived {
+    fn new(cfg: &ControllerConfig) -> Result<Self, ConfigError> {
+        // `validate` has accepted every limit as positive and finite already.
+        let inconsistent = |field| ConfigError {
+            field,
+            problem: ConfigProblem::Inconsistent,
+        };
+        Ok(Self {
+            envelope: EnvelopeBits::new(&cfg.nav_envelope)
+                .ok_or_else(|| inconsistent("nav_envelope"))?,
+            measurement: LimitBits::new(&cfg.measurement)
+                .ok_or_else(|| inconsistent("measurement"))?,
+            modes: ModeLimits::new(&cfg.modes, Controller::PERIOD_S),
+            slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
+            open_loop_throttle: trim_command()[1] - cfg.modes.breakaway_throttle_cut,
+        })
+    }
+}
+
 /// The docking controller.
 #[derive(Debug, Clone)]
 pub struct Controller {
     cfg: ControllerConfig,
+    derived: Derived,
     lon: Channel<5, 2, 2>,
     engine: EngineEstimate,
     lat: Channel<5, 1, 2>,
@@ -188,6 +225,7 @@ impl Controller {
     /// Builds a controller in standby from a validated configuration.
     pub fn new(cfg: ControllerConfig) -> Result<Self, ConfigError> {
         cfg.validate()?;
+        let derived = Derived::new(&cfg)?;
         let trim = trim_command();
         let cam = cfg.camera.position_body_m;
         Ok(Self {
@@ -199,6 +237,7 @@ impl Controller {
             lat: Channel::new(&gains::LAT, &lever_arm_lat(cam), [trim[2], trim[3]]),
             engine: EngineEstimate::new(gains::ENGINE_MODEL),
             cfg,
+            derived,
             modes: ModeMachine::default(),
             sequence: SequenceTracker::default(),
             last_nav: NavSample::default(),
@@ -229,14 +268,18 @@ impl Controller {
         [lo[0], lo[1], la[0]]
     }
 
+    #[inline(always)]
     fn observe_measurement(
         &mut self,
         m: &CameraMeasurement,
     ) -> Result<ImageFeature, MeasurementError> {
         let checked = match self.sequence.observe(m.seq) {
             SequenceCheck::New { dropped } => {
-                self.counters.frames_dropped = self.counters.frames_dropped.saturating_add(dropped);
-                m.validate(&self.cfg.measurement)
+                if dropped != 0 {
+                    self.counters.frames_dropped =
+                        self.counters.frames_dropped.saturating_add(dropped);
+                }
+                m.check(&self.derived.measurement)
             }
             SequenceCheck::Rejected(e) => Err(e),
         };
@@ -247,6 +290,7 @@ impl Controller {
         checked
     }
 
+    #[inline(always)]
     fn outer_law(&self, f: &ImageFeature) -> OuterOutput {
         let c = &self.cfg;
         match c.law {
@@ -263,6 +307,7 @@ impl Controller {
 
     /// The desired camera velocity relative to the drogue for the current mode, before
     /// slewing.
+    #[inline(always)]
     fn mode_velocity(&self) -> VelocityRe {
         let (lim, md) = (&self.cfg.velocity_limits, &self.cfg.modes);
         match self.modes.mode() {
@@ -283,22 +328,53 @@ impl Controller {
         }
     }
 
+    /// The status bits of a step with something to flag, and the counts of it.
+    #[inline(always)]
+    fn flag_and_count(&mut self, sat: &Saturation, flags: [bool; 6]) -> u16 {
+        let [held, nav_held, lon_frozen, lat_frozen, refused, open_loop] = flags;
+        let bit = |on: bool, flag: u16| if on { flag } else { 0 };
+        let [s0, s1, s2, s3] = sat.side.map(|s| s != 0);
+        let saturated = bit(s0, StatusFlags::SATURATED_ELEVATOR)
+            | bit(s1, StatusFlags::SATURATED_THROTTLE)
+            | bit(s2, StatusFlags::SATURATED_AILERON)
+            | bit(s3, StatusFlags::SATURATED_RUDDER);
+        let bits = saturated
+            | bit(held, StatusFlags::MEASUREMENT_HELD)
+            | bit(nav_held, StatusFlags::NAV_HELD)
+            | bit(lon_frozen, StatusFlags::LON_INTEGRATOR_FROZEN)
+            | bit(lat_frozen, StatusFlags::LAT_INTEGRATOR_FROZEN)
+            | bit(refused, StatusFlags::ENGAGE_REFUSED)
+            | bit(sat.non_finite, StatusFlags::NON_FINITE_COMMAND)
+            | bit(open_loop, StatusFlags::OPEN_LOOP);
+        let c = &mut self.counters;
+        bump(&mut c.measurement_held_steps, held);
+        bump(&mut c.nav_held_steps, nav_held);
+        bump(&mut c.engage_refused, refused);
+        bump(&mut c.saturated_steps, saturated != 0);
+        bump(&mut c.integrator_frozen_steps, lon_frozen || lat_frozen);
+        bump(&mut c.non_finite_commands, sat.non_finite);
+        bits
+    }
+
     /// Runs one control step. Never panics; the command is always finite and within limits.
+    ///
+    /// Bounded time: no loop depends on the data, nothing recurses, nothing allocates, and no
+    /// library call remains on the IBVS path (`docs/benchmarks.md`, "Worst case").
     pub fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
         let ts = Self::PERIOD_S;
         let c = &mut self.counters;
         c.steps = c.steps.saturating_add(1);
 
         // 1. Navigation: hold the last valid sample when this one is bad.
-        let nav_error = input.nav.validate(&self.cfg.nav_envelope).err();
+        let nav_error = input.nav.check(&self.derived.envelope).err();
         match nav_error {
             None => self.last_nav = input.nav,
             Some(NavError::NonFinite) => bump(&mut c.nav_non_finite, true),
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
-        let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
-        let x_lat = self.last_nav.lat_design_state();
+        let x_lon = self.last_nav.lon_design_array(self.engine.power_pct());
+        let x_lat = self.last_nav.lat_design_array();
 
         // 2. Measurement, 3. outer loop (its output is kept, i.e. held, until the next valid one).
         let feature = self.observe_measurement(&input.measurement);
@@ -309,20 +385,22 @@ impl Controller {
             self.last_outer = o;
         }
 
-        // 4. Mode logic.
+        // 4. Mode logic. The camera velocity `C x` is computed once, for the dead reckoning
+        // here and the integrators below.
         let before = self.modes.mode();
-        let camera_fwd_mps = self.lon.camera_velocity(&x_lon)[1];
-        let refused = self.modes.update(
+        let y_lon = self.lon.output(&x_lon);
+        let refused = self.modes.advance(
             &ModeInputs {
                 request: input.request,
                 target: fresh.map(|o| o.target),
                 nav_valid,
                 probe_contact: input.probe_contact,
-                camera_fwd_mps,
+                camera_fwd_mps: y_lon[1],
                 v_des: self.v_cmd,
             },
             &self.cfg.modes,
             ts,
+            &self.derived.modes,
         );
         let mode = self.modes.mode();
         if mode == Mode::Standby && before != Mode::Standby {
@@ -335,7 +413,7 @@ impl Controller {
             outer::slew(
                 &self.v_cmd,
                 &self.mode_velocity(),
-                self.cfg.velocity_limits.max_accel_mps2 * ts,
+                self.derived.slew_step_mps,
             )
         };
         let v_des = self.v_cmd;
@@ -350,52 +428,46 @@ impl Controller {
             self.engine.reset();
             trim
         } else if open_loop {
-            let mut t = trim;
-            t[1] -= self.cfg.modes.breakaway_throttle_cut;
-            t
+            [trim[0], self.derived.open_loop_throttle, trim[2], trim[3]]
         } else {
-            let [e, th] = self.lon.command(&x_lon);
-            let [a, r] = self.lat.command(&x_lat);
+            let [e, th] = self.lon.control(&x_lon);
+            let [a, r] = self.lat.control(&x_lat);
             [e, th, a, r]
         };
         let (command, sat) = self.cfg.actuators.saturate(requested, trim);
         self.engine.advance(command[1] - trim[1]);
         let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
-            self.integrate(&x_lon, &x_lat, &v_des, &sat)
+            let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
+            let y_lat = self.lat.output(&x_lat);
+            let lon = self.lon.integrate_output(
+                &y_lon,
+                &[v_des.y_down_mps, v_des.z_fwd_mps],
+                &[s[0], s[1]],
+                ts,
+                lim,
+            );
+            let lat =
+                self.lat
+                    .integrate_output(&y_lat, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
+            (lon, lat)
         } else {
             (false, false)
         };
 
-        // 6. Status and counters.
+        // 6. Status and counters: nothing to flag or count in most steps.
         let held = self.modes.holding_measurement();
         let nav_held = !nav_valid && mode != Mode::Standby && !open_loop;
-        let saturated = sat.side.iter().any(|&s| s != 0);
-        let mut bits = 0u16;
-        for (i, s) in sat.side.iter().enumerate() {
-            if *s != 0 {
-                bits |= StatusFlags::SATURATED_ELEVATOR << i;
-            }
-        }
-        for (flag, on) in [
-            (StatusFlags::MEASUREMENT_HELD, held),
-            (StatusFlags::NAV_HELD, nav_held),
-            (StatusFlags::LON_INTEGRATOR_FROZEN, lon_frozen),
-            (StatusFlags::LAT_INTEGRATOR_FROZEN, lat_frozen),
-            (StatusFlags::ENGAGE_REFUSED, refused),
-            (StatusFlags::NON_FINITE_COMMAND, sat.non_finite),
-            (StatusFlags::OPEN_LOOP, open_loop),
-        ] {
-            if on {
-                bits |= flag;
-            }
-        }
-        let c = &mut self.counters;
-        bump(&mut c.measurement_held_steps, held);
-        bump(&mut c.nav_held_steps, nav_held);
-        bump(&mut c.engage_refused, refused);
-        bump(&mut c.saturated_steps, saturated);
-        bump(&mut c.integrator_frozen_steps, lon_frozen || lat_frozen);
-        bump(&mut c.non_finite_commands, sat.non_finite);
+        let saturated = u32::from_ne_bytes(sat.side.map(|s| s as u8)) != 0;
+        let frozen = lon_frozen || lat_frozen;
+        let bits = if held | nav_held | saturated | frozen | refused | sat.non_finite | open_loop {
+            self.flag_and_count(
+                &sat,
+                [held, nav_held, lon_frozen, lat_frozen, refused, open_loop],
+            )
+        } else {
+            0
+        };
+        let c = &self.counters;
 
         ControllerOutput {
             command: ActuatorCommand::from_array(command),
@@ -408,31 +480,5 @@ impl Controller {
             target: self.last_outer.target,
             step: c.steps,
         }
-    }
-
-    fn integrate(
-        &mut self,
-        x_lon: &SVector<f32, 5>,
-        x_lat: &SVector<f32, 5>,
-        v: &VelocityRe,
-        sat: &Saturation,
-    ) -> (bool, bool) {
-        let (ts, lim) = (Self::PERIOD_S, self.cfg.integrator_limit_m);
-        let s = sat.side;
-        let lon = self.lon.integrate(
-            x_lon,
-            &SVector::<f32, 2>::new(v.y_down_mps, v.z_fwd_mps),
-            &[s[0], s[1]],
-            ts,
-            lim,
-        );
-        let lat = self.lat.integrate(
-            x_lat,
-            &SVector::<f32, 1>::new(v.x_right_mps),
-            &[s[2], s[3]],
-            ts,
-            lim,
-        );
-        (lon, lat)
     }
 }

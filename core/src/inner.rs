@@ -25,7 +25,9 @@
 //!
 //! Invariant: for finite `x` and `v_des` the integrators stay finite and bounded.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
+
+use crate::num::clamp_sym;
 
 /// Names of the longitudinal design states, in order.
 pub const LON_STATES: [&str; 5] = [
@@ -123,11 +125,16 @@ impl EngineEstimate {
 }
 
 /// One channel's controller state and matrices.
+///
+/// Plain arrays: the products are written out, so that the step's arithmetic is exactly
+/// the design's and nothing else (no generic matrix machinery, no bounds checks). Each
+/// product sums left to right starting from its first term, as nalgebra's matrix-vector
+/// product does, so the results are those of the nalgebra formulation bit for bit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
-    k_x: SMatrix<f32, NU, NX>,
-    k_q: SMatrix<f32, NU, NY>,
-    c: SMatrix<f32, NY, NX>,
+    k_x: [[f32; NX]; NU],
+    k_q: [[f32; NY]; NU],
+    c: [[f32; NX]; NY],
     u_trim: [f32; NU],
     q: SVector<f32, NY>,
 }
@@ -141,14 +148,24 @@ pub struct ChannelStep<const NU: usize> {
     pub frozen: bool,
 }
 
+/// `row . x`, summed left to right from `row[0] x[0]` (nalgebra's `gemv` order). `N >= 1`.
+#[inline(always)]
+fn dot<const N: usize>(row: &[f32; N], x: &[f32; N]) -> f32 {
+    let mut s = row[0] * x[0];
+    for j in 1..N {
+        s += row[j] * x[j];
+    }
+    s
+}
+
 impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
     /// Builds a channel from its generated gains, the lever-arm rows for the believed camera
     /// position and the trim inputs.
     pub fn new(g: &ChannelGains<NX, NY, NU>, c_lever: &[[f32; NX]; NY], u_trim: [f32; NU]) -> Self {
         Self {
-            k_x: SMatrix::from_fn(|r, c| g.k_state[r][c]),
-            k_q: SMatrix::from_fn(|r, c| g.k_integral[r][c]),
-            c: SMatrix::from_fn(|r, c| g.c_cg[r][c] + c_lever[r][c]),
+            k_x: g.k_state,
+            k_q: g.k_integral,
+            c: core::array::from_fn(|r| core::array::from_fn(|c| g.c_cg[r][c] + c_lever[r][c])),
             u_trim,
             q: SVector::zeros(),
         }
@@ -156,7 +173,13 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
 
     /// Camera velocity relative to the tanker predicted from the design state, `C x`.
     pub fn camera_velocity(&self, x: &SVector<f32, NX>) -> SVector<f32, NY> {
-        self.c * x
+        SVector::from(self.output(&(*x).into()))
+    }
+
+    /// `C x` on arrays (what the step uses).
+    #[inline(always)]
+    pub fn output(&self, x: &[f32; NX]) -> [f32; NY] {
+        core::array::from_fn(|i| dot(&self.c[i], x))
     }
 
     /// Integrator states (integral of the velocity error: a position error), m.
@@ -171,12 +194,20 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
 
     /// The control law: absolute requested inputs for state `x` and the current integrators.
     pub fn command(&self, x: &SVector<f32, NX>) -> [f32; NU] {
-        let du = self.k_x * x + self.k_q * self.q;
-        core::array::from_fn(|i| self.u_trim[i] - du[i])
+        self.control(&(*x).into())
+    }
+
+    /// [`Channel::command`] on arrays (what the step uses):
+    /// `u_trim - (K_x x + K_q q)`.
+    #[inline(always)]
+    pub fn control(&self, x: &[f32; NX]) -> [f32; NU] {
+        let q: [f32; NY] = self.q.into();
+        core::array::from_fn(|i| self.u_trim[i] - (dot(&self.k_x[i], x) + dot(&self.k_q[i], &q)))
     }
 
     /// Advances the integrators by one step given the tracking error and the saturation side
     /// (`+1`, `-1`, `0`) of each input this step. Returns true when any integrator froze.
+    /// `limit_m` must not be NaN.
     pub fn integrate(
         &mut self,
         x: &SVector<f32, NX>,
@@ -185,16 +216,37 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
         ts_s: f32,
         limit_m: f32,
     ) -> bool {
-        let dq = (self.camera_velocity(x) - v_des) * ts_s;
+        let y = self.output(&(*x).into());
+        self.integrate_output(&y, &(*v_des).into(), sat_side, ts_s, limit_m)
+    }
+
+    /// [`Channel::integrate`] given the output `y = C x` already computed (what the step
+    /// uses: the mode logic needed it too).
+    #[inline(always)]
+    pub fn integrate_output(
+        &mut self,
+        y: &[f32; NY],
+        v_des: &[f32; NY],
+        sat_side: &[i8; NU],
+        ts_s: f32,
+        limit_m: f32,
+    ) -> bool {
         let mut frozen = false;
+        let any_saturated = sat_side.iter().any(|&s| s != 0);
         for i in 0..NY {
-            // The update changes input j by -K_q[j, i] dq[i]; freeze if that deepens a limit.
-            let deepens =
-                (0..NU).any(|j| f32::from(sat_side[j]) * (-self.k_q[(j, i)] * dq[i]) > 0.0);
+            let dq = (y[i] - v_des[i]) * ts_s;
+            // The update changes input j by -K_q[j, i] dq; freeze if that deepens a limit.
+            // (No saturated input: nothing to deepen, `0 * p > 0` is false for every `p`.)
+            let mut deepens = false;
+            if any_saturated {
+                for (side, k) in sat_side.iter().zip(&self.k_q) {
+                    deepens |= f32::from(*side) * (-k[i] * dq) > 0.0;
+                }
+            }
             if deepens {
                 frozen = true;
             } else {
-                self.q[i] = (self.q[i] + dq[i]).max(-limit_m).min(limit_m);
+                self.q[i] = clamp_sym(self.q[i] + dq, limit_m);
             }
         }
         frozen

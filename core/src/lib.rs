@@ -43,6 +43,7 @@ pub mod kinematics;
 pub mod measurement;
 pub mod mode;
 pub mod nav;
+pub mod num;
 pub mod outer;
 pub mod wire;
 

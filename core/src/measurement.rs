@@ -70,6 +70,27 @@ impl Default for MeasurementLimits {
     }
 }
 
+/// Validated [`MeasurementLimits`] as the bit patterns of their limits, for the step's check
+/// (see [`crate::nav::EnvelopeBits`] for why bits compare as the values do).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LimitBits {
+    max_depth: u32,
+    half_fov_x: u32,
+    half_fov_y: u32,
+}
+
+impl LimitBits {
+    /// The limits; `None` unless every one is positive and finite.
+    pub fn new(limits: &MeasurementLimits) -> Option<Self> {
+        let bits = |v: f32| (v > 0.0 && v.is_finite()).then_some(v.to_bits());
+        Some(Self {
+            max_depth: bits(limits.max_depth_m)?,
+            half_fov_x: bits(limits.half_fov_x)?,
+            half_fov_y: bits(limits.half_fov_y)?,
+        })
+    }
+}
+
 /// A validated image feature: image error (paper eq. (2)) and depth.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -127,6 +148,57 @@ impl SequenceTracker {
 }
 
 impl CameraMeasurement {
+    /// [`CameraMeasurement::validate`] against limits that are positive and finite, with the
+    /// same answer for every frame, comparing bit patterns. A frame inside the (finite)
+    /// limits is finite, so a good frame passes with one test per value; which error a bad
+    /// one has is worked out only then.
+    #[inline]
+    pub fn check(&self, limits: &LimitBits) -> Result<ImageFeature, MeasurementError> {
+        use crate::num::abs_bits;
+        let depth = self.depth_m.to_bits();
+        // Positive depth: neither the sign bit set nor all bits zero (+0).
+        if self.tracked
+            && abs_bits(self.image_x) <= limits.half_fov_x
+            && abs_bits(self.image_y) <= limits.half_fov_y
+            && depth as i32 > 0
+            && depth <= limits.max_depth
+        {
+            Ok(ImageFeature {
+                image_x: self.image_x,
+                image_y: self.image_y,
+                depth_m: self.depth_m,
+            })
+        } else {
+            Err(self.rejection(limits))
+        }
+    }
+
+    /// Why a frame that failed [`CameraMeasurement::check`] fails, in
+    /// [`CameraMeasurement::validate`]'s order. Out of line: the common path keeps nothing
+    /// for it.
+    #[cold]
+    #[inline(never)]
+    fn rejection(&self, limits: &LimitBits) -> MeasurementError {
+        use crate::num::{INF_BITS, abs_bits};
+        let (x, y, depth) = (
+            abs_bits(self.image_x),
+            abs_bits(self.image_y),
+            self.depth_m.to_bits(),
+        );
+        if !self.tracked {
+            MeasurementError::NotTracked
+        } else if x >= INF_BITS || y >= INF_BITS || depth & 0x7FFF_FFFF >= INF_BITS {
+            MeasurementError::NonFinite
+        } else if depth as i32 <= 0 {
+            // Finite: zero and negative depths (sign bit set, or all bits zero).
+            MeasurementError::DepthNotPositive
+        } else if depth > limits.max_depth {
+            MeasurementError::DepthTooLarge
+        } else {
+            MeasurementError::OutsideFieldOfView
+        }
+    }
+
     /// Checks the frame's content (not its sequence) against `limits`.
     pub fn validate(&self, limits: &MeasurementLimits) -> Result<ImageFeature, MeasurementError> {
         if !self.tracked {
@@ -237,6 +309,47 @@ mod tests {
         ];
         for (m, want) in cases {
             assert_eq!(m.validate(&lim), Err(want), "{m:?}");
+        }
+    }
+
+    #[test]
+    fn the_bit_check_answers_as_validate() {
+        let lim = MeasurementLimits::default();
+        let bits = LimitBits::new(&lim).expect("valid limits");
+        let values = [
+            0.0,
+            -0.0,
+            0.3,
+            -0.3,
+            0.64,
+            -0.64,
+            f32::from_bits(0.64_f32.to_bits() + 1),
+            0.48,
+            -0.480001,
+            6.0,
+            -6.0,
+            50.0,
+            50.000004,
+            1e-42,
+            -1e-42,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        for (i, &x) in values.iter().enumerate() {
+            for &y in &values {
+                for &depth_m in &values {
+                    let m = CameraMeasurement {
+                        seq: 0,
+                        tracked: i % 7 != 3,
+                        image_x: x,
+                        image_y: y,
+                        depth_m,
+                    };
+                    assert_eq!(m.check(&bits), m.validate(&lim), "{m:?}");
+                }
+            }
         }
     }
 

@@ -25,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::frames::{TargetEstimate, VelocityRe};
+use crate::num::HypotLimit;
 
 /// Controller mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -152,6 +153,25 @@ fn timeout_steps(cfg: &ModeConfig, ts_s: f32) -> u32 {
     libm::roundf(cfg.terminal_timeout_s / ts_s) as u32
 }
 
+/// What the transitions need from a [`ModeConfig`] and the step period, derived once: the
+/// blind-phase limit in steps and the terminal-entry offset check (`libm::hypotf` of the
+/// target's offset against `terminal_max_offset_m`, as [`HypotLimit`] answers it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeLimits {
+    timeout_steps: u32,
+    max_offset: HypotLimit,
+}
+
+impl ModeLimits {
+    /// Derives the limits of `cfg` at the period `ts_s`.
+    pub fn new(cfg: &ModeConfig, ts_s: f32) -> Self {
+        Self {
+            timeout_steps: timeout_steps(cfg, ts_s),
+            max_offset: HypotLimit::new(cfg.terminal_max_offset_m),
+        }
+    }
+}
+
 /// The mode state machine.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ModeMachine {
@@ -197,6 +217,19 @@ impl ModeMachine {
     /// Advances the machine by one step of `ts_s` seconds. Returns true when `Engage` was
     /// requested in standby but refused (no valid measurement or navigation).
     pub fn update(&mut self, inp: &ModeInputs, cfg: &ModeConfig, ts_s: f32) -> bool {
+        self.advance(inp, cfg, ts_s, &ModeLimits::new(cfg, ts_s))
+    }
+
+    /// [`ModeMachine::update`] with the limits derived beforehand (`ModeLimits::new(cfg,
+    /// ts_s)`: the controller derives them at construction).
+    #[inline]
+    pub fn advance(
+        &mut self,
+        inp: &ModeInputs,
+        cfg: &ModeConfig,
+        ts_s: f32,
+        limits: &ModeLimits,
+    ) -> bool {
         self.nav_invalid_steps = if inp.nav_valid {
             0
         } else {
@@ -235,7 +268,8 @@ impl ModeMachine {
                 Some(t) => {
                     self.meas_invalid_steps = 0;
                     if t.depth_m <= cfg.terminal_depth_m {
-                        if t.radial_offset_m() > cfg.terminal_max_offset_m {
+                        // t.radial_offset_m() > cfg.terminal_max_offset_m, exactly.
+                        if limits.max_offset.exceeded_by(t.right_m, t.down_m) {
                             self.break_away(BreakawayReason::PredictedMiss);
                         } else {
                             self.enter(Mode::Terminal);
@@ -256,7 +290,7 @@ impl ModeMachine {
                     self.enter(Mode::Docked);
                 } else if t.depth_m < -cfg.terminal_overshoot_m {
                     self.break_away(BreakawayReason::PassedDroguePlane);
-                } else if t.steps > timeout_steps(cfg, ts_s) {
+                } else if t.steps > limits.timeout_steps {
                     self.break_away(BreakawayReason::TerminalTimeout);
                 }
             }

@@ -97,7 +97,82 @@ impl Default for NavEnvelope {
     }
 }
 
+/// A validated [`NavEnvelope`] as the bit patterns of its limits, for the step's check.
+///
+/// For a finite `v` and a positive finite limit, `|v| <= limit` exactly when the bits of
+/// `|v|` do not exceed the limit's (IEEE 754 orders non-negative floats as their bit
+/// patterns), so the check is integer arithmetic without branches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EnvelopeBits {
+    angle: u32,
+    bank: u32,
+    sideslip: u32,
+    speed: u32,
+    rate: u32,
+}
+
+impl EnvelopeBits {
+    /// The envelope's limits; `None` unless every one is positive and finite.
+    pub fn new(env: &NavEnvelope) -> Option<Self> {
+        let bits = |v: f32| (v > 0.0 && v.is_finite()).then_some(v.to_bits());
+        Some(Self {
+            angle: bits(env.max_angle_rad)?,
+            bank: bits(env.max_bank_rad)?,
+            sideslip: bits(env.max_sideslip_rad)?,
+            speed: bits(env.max_speed_mps)?,
+            rate: bits(env.max_rate_radps)?,
+        })
+    }
+}
+
+/// Bits of the largest finite `f32`: a magnitude's bits above it are not finite.
+const MAX_FINITE_BITS: u32 = 0x7F7F_FFFF;
+/// The sign bit.
+const SIGN: u32 = 0x8000_0000;
+
 impl NavSample {
+    /// [`NavSample::validate`] against an envelope whose limits are positive and finite,
+    /// with the same answer for every sample, in integer arithmetic: `limit - |v|` (as
+    /// bits) is negative exactly when `|v| > limit`, and the sign bits are OR-ed together.
+    /// A state inside its (finite) limit is finite, so a sample passes with one test per
+    /// state; which error a failing one has is worked out only then.
+    #[inline]
+    pub fn check(&self, env: &EnvelopeBits) -> Result<(), NavError> {
+        let a = self.as_array().map(crate::num::abs_bits);
+        let outside = env.angle.wrapping_sub(a[2]) // theta
+            | env.speed.wrapping_sub(a[3]) // V
+            | env.angle.wrapping_sub(a[4]) // alpha
+            | env.rate.wrapping_sub(a[5]) // q
+            | env.angle.wrapping_sub(a[7]) // psi
+            | env.bank.wrapping_sub(a[8]) // phi
+            | env.sideslip.wrapping_sub(a[9]) // beta
+            | env.rate.wrapping_sub(a[10]) // p
+            | env.rate.wrapping_sub(a[11]); // r
+        let unchecked_non_finite = MAX_FINITE_BITS.wrapping_sub(a[0]) // x
+            | MAX_FINITE_BITS.wrapping_sub(a[1]) // h
+            | MAX_FINITE_BITS.wrapping_sub(a[6]); // y
+        if (outside | unchecked_non_finite) & SIGN == 0 {
+            Ok(())
+        } else {
+            Err(self.rejection())
+        }
+    }
+
+    /// Why a sample that failed [`NavSample::check`] fails: non-finite before out of the
+    /// envelope. Out of line: the check's common path keeps nothing for it.
+    #[cold]
+    #[inline(never)]
+    fn rejection(&self) -> NavError {
+        let non_finite = self.as_array().iter().fold(0, |acc, &v| {
+            acc | MAX_FINITE_BITS.wrapping_sub(crate::num::abs_bits(v))
+        });
+        if non_finite & SIGN != 0 {
+            NavError::NonFinite
+        } else {
+            NavError::OutsideEnvelope
+        }
+    }
+
     /// All twelve states in the paper's order (lon then lat).
     pub fn as_array(&self) -> [f32; 12] {
         let (lo, la) = (&self.lon, &self.lat);
@@ -180,6 +255,26 @@ impl NavSample {
         )
     }
 
+    /// [`NavSample::lon_design_state`] as an array (what the step uses).
+    #[inline(always)]
+    pub fn lon_design_array(&self, engine_power_pct: f32) -> [f32; 5] {
+        let l = &self.lon;
+        [
+            l.theta_rad,
+            l.v_mps,
+            l.alpha_rad,
+            l.q_radps,
+            engine_power_pct,
+        ]
+    }
+
+    /// [`NavSample::lat_design_state`] as an array (what the step uses).
+    #[inline(always)]
+    pub fn lat_design_array(&self) -> [f32; 5] {
+        let l = &self.lat;
+        [l.psi_rad, l.phi_rad, l.beta_rad, l.p_radps, l.r_radps]
+    }
+
     /// Lateral design state `[psi, phi, beta, p, r]` ([`crate::inner::LAT_STATES`]).
     pub fn lat_design_state(&self) -> SVector<f32, 5> {
         let l = &self.lat;
@@ -208,6 +303,52 @@ mod tests {
         let mut fast = ok;
         fast.lon.v_mps = -31.0;
         assert_eq!(fast.validate(&env), Err(NavError::OutsideEnvelope));
+    }
+
+    #[test]
+    fn the_bit_check_answers_as_validate() {
+        let env = NavEnvelope::default();
+        let bits = EnvelopeBits::new(&env).expect("valid envelope");
+        let values = [
+            0.0,
+            -0.0,
+            0.1,
+            -0.1,
+            0.35,
+            -0.35,
+            f32::from_bits(0.35_f32.to_bits() + 1),
+            0.785,
+            1.5,
+            -1.5000001,
+            29.9,
+            30.0,
+            -30.000002,
+            1e-40,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut k = 0usize;
+        for _ in 0..20_000 {
+            let a: [f32; 12] = core::array::from_fn(|i| {
+                k = k
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407 + i);
+                // mostly in range, sometimes anything
+                let v = values[(k >> 33) % values.len()];
+                if (k >> 20) % 4 == 0 { v } else { v * 0.1 }
+            });
+            let s = NavSample::from_array(a);
+            assert_eq!(s.check(&bits), s.validate(&env), "{a:?}");
+        }
+        assert_eq!(
+            EnvelopeBits::new(&NavEnvelope {
+                max_rate_radps: f32::NAN,
+                ..env
+            }),
+            None
+        );
     }
 
     #[test]

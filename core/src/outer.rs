@@ -21,6 +21,7 @@ use crate::frames::{TargetEstimate, VelocityRe};
 use crate::kinematics::{self, CameraMount};
 use crate::measurement::ImageFeature;
 use crate::nav::NavSample;
+use crate::num::{clamp_sym, max_to, min_to};
 
 /// Gains of the IBVS law (paper Table 1 as defaults, in normalised image units).
 ///
@@ -96,15 +97,11 @@ pub struct OuterOutput {
 
 fn closing_speed(raw_mps: f32, lim: &VelocityLimits) -> f32 {
     // max(raw, a) then the upper limit; a <= max is a validated config invariant.
-    raw_mps.max(lim.min_closing_mps).min(lim.max_closing_mps)
+    min_to(max_to(raw_mps, lim.min_closing_mps), lim.max_closing_mps)
 }
 
-/// `v` limited to `[-limit, limit]` (`max`/`min` rather than `clamp`: no panic path).
-fn clamp_sym(v: f32, limit: f32) -> f32 {
-    v.max(-limit).min(limit)
-}
-
-/// Moves `from` toward `to` by at most `max_step` on each axis.
+/// Moves `from` toward `to` by at most `max_step` (not NaN) on each axis.
+#[inline]
 pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
     let step = |a: f32, b: f32| a + clamp_sym(b - a, max_step);
     VelocityRe {
@@ -116,6 +113,8 @@ pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
 
 /// IBVS law: `v_x = min(k1, g z) e_x`, `v_y = min(k2, g z) e_y` (`g`: the Cartesian-gain cap),
 /// `v_z = min(max(k3 z - k4 |e_x| - k5 |e_y|, a), v_max)`, lateral and vertical saturated.
+/// Limits are not NaN (a validated configuration's are not; `min`/`max` without calls).
+#[inline]
 pub fn ibvs(f: &ImageFeature, g: &IbvsGains, lim: &VelocityLimits) -> OuterOutput {
     let e_x = f.image_x - g.convergence_point[0];
     let e_y = f.image_y - g.convergence_point[1];
@@ -124,8 +123,8 @@ pub fn ibvs(f: &ImageFeature, g: &IbvsGains, lim: &VelocityLimits) -> OuterOutpu
     let raw_close = g.k3_per_s * z - g.k4_mps * libm::fabsf(e_x) - g.k5_mps * libm::fabsf(e_y);
     OuterOutput {
         v_des: VelocityRe {
-            x_right_mps: clamp_sym(g.k1_mps.min(cap) * e_x, lim.max_lateral_mps),
-            y_down_mps: clamp_sym(g.k2_mps.min(cap) * e_y, lim.max_vertical_mps),
+            x_right_mps: clamp_sym(min_to(g.k1_mps, cap) * e_x, lim.max_lateral_mps),
+            y_down_mps: clamp_sym(min_to(g.k2_mps, cap) * e_y, lim.max_vertical_mps),
             z_fwd_mps: closing_speed(raw_close, lim),
         },
         target: TargetEstimate {
@@ -169,6 +168,9 @@ pub fn pbvs_drogue_from_probe_tanker_m(
 
 /// PBVS law on the reconstructed offset `r` (tanker axes): `v_right = k_lat r_y`,
 /// `v_down = k_vert r_z`, `v_fwd = min(max(k_close r_x - k_slow_lat |r_y| - k_slow_vert |r_z|, a), v_max)`.
+///
+/// Out of line: the baseline law (and its trigonometry) stays out of the IBVS step's code.
+#[inline(never)]
 pub fn pbvs(
     f: &ImageFeature,
     nav: &NavSample,

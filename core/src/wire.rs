@@ -347,10 +347,18 @@ fn encode_frame<T: Serialize>(
     let body_len = postcard::to_slice(msg, &mut rest[..MAX_BODY_LEN])
         .map_err(|_| WireError::TooLarge)?
         .len();
+    // The body is at most MAX_BODY_LEN bytes, so the ranges below are inside `payload`;
+    // `get` keeps a panic path out of the firmware (its link-time no-panic check).
     let data_len = HEADER_LEN + body_len;
-    let crc = CRC32C.checksum(&payload[..data_len]);
-    payload[data_len..data_len + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
-    let n = cobs_encode(&payload[..data_len + CRC_LEN], out)?;
+    let crc = CRC32C.checksum(payload.get(..data_len).ok_or(WireError::TooLarge)?);
+    payload
+        .get_mut(data_len..data_len + CRC_LEN)
+        .ok_or(WireError::TooLarge)?
+        .copy_from_slice(&crc.to_le_bytes());
+    let framed = payload
+        .get(..data_len + CRC_LEN)
+        .ok_or(WireError::TooLarge)?;
+    let n = cobs_encode(framed, out)?;
     *out.get_mut(n).ok_or(WireError::BufferTooSmall)? = 0;
     Ok(n + 1)
 }
@@ -495,7 +503,13 @@ impl FrameDecoder {
                 Some(e) => Some(Err(e)),
                 None if encoded == 0 => None,
                 None if remaining != 0 => Some(Err(WireError::Cobs)),
-                None => Some(check_payload(&self.buf[..len])),
+                // `len` never exceeds the buffer (`push`); `get` keeps a panic path out of
+                // the firmware (its link-time no-panic check, firmware/src/bin/nopanic.rs).
+                None => Some(
+                    self.buf
+                        .get(..len)
+                        .map_or(Err(WireError::Oversize), check_payload),
+                ),
             };
         }
         if self.discard.is_some() {

@@ -73,6 +73,13 @@ pub trait CostCounter {
     const UNIT: CostUnit;
     /// The counter now.
     fn now() -> u32;
+    /// Runs `f`; returns its result and, on boards that measure it, the stack `f` used below
+    /// the caller's stack pointer, bytes (the `qemu` board paints and scans; the default
+    /// measures nothing).
+    #[inline(always)]
+    fn stack_of<R>(f: impl FnOnce() -> R) -> (R, Option<u32>) {
+        (f(), None)
+    }
 }
 
 /// No counter (host builds): every cost reads 0.
@@ -103,6 +110,13 @@ pub enum Event {
     LinkStale,
     /// Free-running: a new frame arrived after the link was stale.
     LinkRecovered,
+    /// A control step used more stack than any before it (boards that measure it).
+    ControlStack {
+        /// Bytes below the caller's stack pointer, the step's frames and anything they call.
+        bytes: u32,
+        /// Controller step number.
+        step: u32,
+    },
 }
 
 /// What the application needs from a board.
@@ -122,6 +136,28 @@ pub trait Board {
     fn wait_for_event(&mut self);
     /// Logs an event.
     fn log(&mut self, event: Event);
+}
+
+/// One controller step, with its cost in `C`'s unit (the call and the step) and the stack it
+/// used, bytes, where the board measures it. Out of line, once in the binary.
+#[inline(never)]
+fn control_step<C: CostCounter>(
+    controller: &mut Controller,
+    input: &ControllerInput,
+) -> (ControllerOutput, u32, Option<u32>) {
+    let ((out, cost), stack) = C::stack_of(|| {
+        let t0 = C::now();
+        let out = step_out_of_line(controller, input);
+        (out, C::now().wrapping_sub(t0))
+    });
+    (out, cost, stack)
+}
+
+/// [`Controller::step`], never inlined into its caller: its frames lie below the caller's
+/// stack pointer, where [`CostCounter::stack_of`] finds them.
+#[inline(never)]
+fn step_out_of_line(controller: &mut Controller, input: &ControllerInput) -> ControllerOutput {
+    controller.step(input)
 }
 
 /// The standby output: trim commands, nothing else (boot, panic, no link yet).
@@ -156,6 +192,10 @@ pub struct App {
     last: Downlink,
     /// Status bits set in every frame (schedule, previous panic).
     base_status: u8,
+    /// Largest stack a control step used (boards that measure it), bytes.
+    control_stack_max: u32,
+    /// An event to log after the current one (a new control-stack maximum).
+    pending: Option<Event>,
     buf: [u8; MAX_FRAME_LEN],
 }
 
@@ -185,6 +225,8 @@ impl App {
             tx_seq: 0,
             last: Downlink::default(),
             base_status,
+            control_stack_max: 0,
+            pending: None,
             buf: [0; MAX_FRAME_LEN],
         })
     }
@@ -260,9 +302,16 @@ impl App {
         decode: u32,
     ) -> (Downlink, Option<Event>) {
         let before = self.controller.mode();
-        let t0 = C::now();
-        let out = self.controller.step(input);
-        let step = C::now().wrapping_sub(t0);
+        let (out, step, stack) = control_step::<C>(&mut self.controller, input);
+        if let Some(bytes) = stack
+            && bytes > self.control_stack_max
+        {
+            self.control_stack_max = bytes;
+            self.pending = Some(Event::ControlStack {
+                bytes,
+                step: out.step,
+            });
+        }
         let event = (out.mode != before).then_some(Event::ModeChanged {
             mode: out.mode,
             reason: out.breakaway_reason,
@@ -375,6 +424,12 @@ impl App {
         (self.encode::<C>(d).map(<[u8]>::len), event.or(mode_event))
     }
 
+    /// An event left to log after the one [`App::on_byte`] or [`App::on_periods`] returned
+    /// (a new control-stack maximum).
+    pub fn take_pending_event(&mut self) -> Option<Event> {
+        self.pending.take()
+    }
+
     /// The frame buffer: the first `len` bytes are the frame [`App::on_byte`] or
     /// [`App::on_periods`] returned.
     pub fn frame_bytes(&self, len: usize) -> &[u8] {
@@ -424,7 +479,7 @@ impl App {
             };
             for &b in &chunk[..n.min(chunk.len())] {
                 let (len, event) = self.on_byte::<B::Counter>(b);
-                if let Some(e) = event {
+                for e in event.into_iter().chain(self.take_pending_event()) {
                     board.log(e);
                 }
                 if let Some(len) = len {
@@ -436,7 +491,7 @@ impl App {
         if self.schedule == Schedule::FreeRunning {
             let periods = board.take_periods();
             let (len, event) = self.on_periods::<B::Counter>(periods);
-            if let Some(e) = event {
+            for e in event.into_iter().chain(self.take_pending_event()) {
                 board.log(e);
             }
             if let Some(len) = len {

@@ -1,16 +1,22 @@
-//! What the link costs on the MCU: one measurement frame decoded, one command frame encoded,
-//! the CRC alone, and one controller step, each read from a [`CostCounter`].
+//! What the control step and the link cost on the MCU, path by path, read from a
+//! [`CostCounter`]: the same code on both boards (instructions under QEMU, DWT cycles on the
+//! `f405` board).
 //!
 //! Place in the data flow: none; the `qemu` board runs this when its semihosting command line
-//! says `bench` and prints the result (instructions, exact under `-icount shift=0`). The
-//! frames are those of an approach: the 20th step after an engage near the paper's start,
-//! with a perturbed navigation sample (every field non-zero, as in flight). Decoding cost
-//! depends on the content: each zero byte of the payload is a COBS block boundary, dearer
-//! than a data byte, so the same frame with the navigation at exactly zero (48 zero bytes) is
-//! measured too.
+//! says `bench`, the `f405` board at boot when built with the `bench` feature, and each logs
+//! the result as one JSON line (`docs/benchmarks.md`, "On hardware").
 //!
-//! Invariant: the figures are of this module's own work only (the counter is read right
-//! before and after each measured call; one count of each pair is the read itself).
+//! The controller steps through one scripted docking that visits every path of the step:
+//! engage, approach (valid frames, perturbed navigation), a held frame, the terminal entry
+//! (with its offset check), the blind phase, contact, contact lost (breakaway with
+//! navigation), breakaway without navigation (open loop). Each path's largest cost is kept,
+//! with the largest stack any step used (where the counter measures it:
+//! [`CostCounter::stack_of`]). Then the link: one measurement frame decoded (and again with
+//! the navigation at exactly zero: each zero byte is a COBS block boundary, dearer than a
+//! data byte), the CRC-32C alone, one command frame encoded.
+//!
+//! Invariant: the figures are of the measured calls only (the counter is read right before
+//! and after each; one count of each pair is the read itself, under QEMU).
 
 use core::hint::black_box;
 
@@ -19,14 +25,37 @@ use ibvs_core::wire::{
     CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Uplink, encode_downlink,
     encode_uplink,
 };
-use ibvs_core::{Controller, ControllerConfig, ModeRequest};
+use ibvs_core::{
+    Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
+};
 
 use crate::app::CostCounter;
 use crate::one_step::engage_input;
 
-/// Costs in the counter's unit, and the frame sizes, bytes.
+/// The paths of the step the script visits, in order.
+pub const PATHS: [&str; 8] = [
+    "engage",
+    "approach",
+    "hold",
+    "terminal_entry",
+    "terminal",
+    "docked",
+    "breakaway",
+    "breakaway_open_loop",
+];
+
+/// Costs in the counter's unit, the stack, and the frame sizes, bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct CodecCosts {
+pub struct Costs {
+    /// The largest step cost of each path of [`PATHS`].
+    pub step: [u32; 8],
+    /// The largest stack a step used, bytes (`None`: the counter does not measure it).
+    pub step_stack_bytes: Option<u32>,
+    /// Steps the script ran.
+    pub steps: u32,
+    /// The script ended where it should (breakaway, open loop); false means the figures
+    /// are not of the paths named.
+    pub script_ok: bool,
     /// Measurement frame on the wire, bytes.
     pub measurement_frame_len: usize,
     /// Command frame on the wire, bytes.
@@ -40,8 +69,50 @@ pub struct CodecCosts {
     pub crc_measurement: u32,
     /// Encoding the command frame: postcard, CRC, COBS.
     pub encode_command: u32,
-    /// The controller step that produced it.
-    pub step: u32,
+}
+
+impl Costs {
+    /// The largest step cost of any path.
+    pub fn step_max(&self) -> u32 {
+        self.step.iter().copied().max().unwrap_or(0)
+    }
+}
+
+/// [`Costs`] as one JSON object (the unit named), through integer formatting only.
+pub struct Json<'a>(pub &'a Costs, pub &'static str);
+
+impl core::fmt::Display for Json<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let c = self.0;
+        write!(f, "{{\"unit\": \"{}\", \"step\": {{", self.1)?;
+        for (i, (path, cost)) in PATHS.iter().zip(c.step).enumerate() {
+            let sep = if i == 0 { "" } else { ", " };
+            write!(f, "{sep}\"{path}\": {cost}")?;
+        }
+        write!(
+            f,
+            "}}, \"step_max\": {}, \"step_stack_bytes\": ",
+            c.step_max()
+        )?;
+        match c.step_stack_bytes {
+            Some(b) => write!(f, "{b}")?,
+            None => f.write_str("null")?,
+        }
+        write!(
+            f,
+            ", \"steps\": {}, \"script_ok\": {}, \"measurement_frame_bytes\": {}, \
+             \"decode_measurement\": {}, \"decode_measurement_zero_nav\": {}, \
+             \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}}}",
+            c.steps,
+            c.script_ok,
+            c.measurement_frame_len,
+            c.decode_measurement,
+            c.decode_measurement_zero_nav,
+            c.crc_measurement,
+            c.command_frame_len,
+            c.encode_command
+        )
+    }
 }
 
 /// A plausible navigation sample near trim (every state non-zero).
@@ -66,23 +137,74 @@ fn decode_cost<C: CostCounter>(frame: &[u8]) -> u32 {
     cost
 }
 
-/// Measures the costs once (the figures are deterministic under QEMU).
-pub fn measure<C: CostCounter>() -> CodecCosts {
-    let mut controller = match Controller::new(ControllerConfig::default()) {
-        Ok(c) => c,
-        Err(_) => return CodecCosts::default(),
-    };
+/// Runs the scripted docking; the step costs per path and the last output.
+fn steps<C: CostCounter>(
+    costs: &mut Costs,
+) -> Option<(Controller, ControllerInput, ControllerOutput)> {
+    let mut controller = Controller::new(ControllerConfig::default()).ok()?;
     let mut input = engage_input();
     input.nav = perturbed_nav();
-    let mut step = 0;
-    let mut output = controller.step(&input);
-    input.request = ModeRequest::None;
-    for _ in 0..19 {
-        input.measurement.seq += 1;
-        let t0 = C::now();
-        output = controller.step(black_box(&input));
-        step = C::now().wrapping_sub(t0);
+    let mut last = ControllerOutput::default();
+    let mut run = |path: usize, input: &mut ControllerInput, controller: &mut Controller| {
+        input.measurement.seq = input.measurement.seq.wrapping_add(1);
+        let ((out, cost), stack) = C::stack_of(|| {
+            let t0 = C::now();
+            let out = controller.step(black_box(input));
+            (out, C::now().wrapping_sub(t0))
+        });
+        costs.step[path] = costs.step[path].max(cost);
+        if let Some(b) = stack {
+            costs.step_stack_bytes = Some(costs.step_stack_bytes.unwrap_or(0).max(b));
+        }
+        costs.steps += 1;
+        input.request = ModeRequest::None;
+        out
+    };
+    // Engage, then approach from the paper's start, closing.
+    run(0, &mut input, &mut controller);
+    for k in 0..30 {
+        input.measurement.depth_m = 6.0 - 0.1 * k as f32;
+        last = run(1, &mut input, &mut controller);
     }
+    // A frame the tracker lost: the outer loop holds.
+    input.measurement.tracked = false;
+    run(2, &mut input, &mut controller);
+    input.measurement.tracked = true;
+    // Terminal entry: close and nearly centred (offset 0.06 m, checked against 0.3 m).
+    input.measurement.depth_m = 0.6;
+    input.measurement.image_x = 0.1;
+    input.measurement.image_y = -0.01;
+    run(3, &mut input, &mut controller);
+    let entered = controller.mode() == Mode::Terminal;
+    // The blind phase (frames lost near the drogue), contact, docked, contact lost.
+    input.measurement.tracked = false;
+    for _ in 0..10 {
+        run(4, &mut input, &mut controller);
+    }
+    input.probe_contact = true;
+    for _ in 0..5 {
+        run(5, &mut input, &mut controller);
+    }
+    input.probe_contact = false;
+    for _ in 0..10 {
+        run(6, &mut input, &mut controller);
+    }
+    // The navigation lost in breakaway: open loop.
+    input.nav = NavSample::from_array([f32::NAN; 12]);
+    for _ in 0..5 {
+        last = run(7, &mut input, &mut controller);
+    }
+    costs.script_ok = entered && controller.mode() == Mode::Breakaway && last.status.0 != 0;
+    Some((controller, input, last))
+}
+
+/// Measures the costs once (the figures are deterministic under QEMU).
+pub fn measure<C: CostCounter>() -> Costs {
+    let mut costs = Costs::default();
+    let Some((controller, mut input, output)) = steps::<C>(&mut costs) else {
+        return costs;
+    };
+    input.nav = perturbed_nav();
     let up = Uplink {
         seq: input.measurement.seq,
         input,
@@ -101,34 +223,27 @@ pub fn measure<C: CostCounter>() -> CodecCosts {
 
     let mut up_buf = [0u8; MAX_FRAME_LEN];
     let up_len = encode_uplink(&up, &mut up_buf).map_or(0, <[u8]>::len);
-    let decode_measurement = decode_cost::<C>(&up_buf[..up_len]);
+    costs.measurement_frame_len = up_len;
+    costs.decode_measurement = decode_cost::<C>(&up_buf[..up_len]);
 
     let mut zero_nav = up;
     zero_nav.input.nav = NavSample::default();
     let mut zero_buf = [0u8; MAX_FRAME_LEN];
     let zero_len = encode_uplink(&zero_nav, &mut zero_buf).map_or(0, <[u8]>::len);
-    let decode_measurement_zero_nav = decode_cost::<C>(&zero_buf[..zero_len]);
+    costs.decode_measurement_zero_nav = decode_cost::<C>(&zero_buf[..zero_len]);
 
     // The CRC over a payload of the same length (frame minus COBS code and zero).
     let payload = [0x5Au8; MAX_FRAME_LEN];
     let t0 = C::now();
     black_box(CRC32C.checksum(black_box(&payload[..up_len.saturating_sub(2)])));
-    let crc_measurement = C::now().wrapping_sub(t0);
+    costs.crc_measurement = C::now().wrapping_sub(t0);
 
     let mut down_buf = [0u8; MAX_FRAME_LEN];
     let t0 = C::now();
     let down_len = encode_downlink(black_box(&down), &mut down_buf).map_or(0, <[u8]>::len);
-    let encode_command = C::now().wrapping_sub(t0);
-
-    CodecCosts {
-        measurement_frame_len: up_len,
-        command_frame_len: down_len,
-        decode_measurement,
-        decode_measurement_zero_nav,
-        crc_measurement,
-        encode_command,
-        step,
-    }
+    costs.encode_command = C::now().wrapping_sub(t0);
+    costs.command_frame_len = down_len;
+    costs
 }
 
 #[cfg(test)]
@@ -137,10 +252,33 @@ mod tests {
     use crate::app::NoCounter;
 
     #[test]
-    fn measures_real_frames() {
+    fn json_line_is_json() {
+        let c = Costs {
+            step: [1, 2, 3, 4, 5, 6, 7, 8],
+            step_stack_bytes: Some(200),
+            ..Costs::default()
+        };
+        let text = Json(&c, "cycles").to_string();
+        assert!(
+            text.starts_with("{\"unit\": \"cycles\", \"step\": {\"engage\": 1, "),
+            "{text}"
+        );
+        assert!(
+            text.contains("\"step_max\": 8, \"step_stack_bytes\": 200, "),
+            "{text}"
+        );
+        assert!(text.ends_with("\"encode_command\": 0}"), "{text}");
+        assert_eq!(text.matches('{').count(), text.matches('}').count());
+    }
+
+    #[test]
+    fn the_script_visits_every_path_and_measures_real_frames() {
         let c = measure::<NoCounter>();
+        assert!(c.script_ok, "{c:?}");
+        assert_eq!(c.steps, 1 + 30 + 1 + 1 + 10 + 5 + 10 + 5);
         assert!((73..=81).contains(&c.measurement_frame_len), "{c:?}");
         assert!((93..=251).contains(&c.command_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
+        assert_eq!(c.step_stack_bytes, None);
     }
 }

@@ -66,8 +66,44 @@ impl fmt::Display for OneStepError {
                 "engage did not enter approach: mode {mode:?}, status {:#06x}",
                 status.0
             ),
-            Self::NonFiniteCommand(c) => write!(f, "non-finite command {c:?}"),
+            Self::NonFiniteCommand([a, b, c, d]) => write!(
+                f,
+                "non-finite command [{}, {}, {}, {}]",
+                Micro(*a),
+                Micro(*b),
+                Micro(*c),
+                Micro(*d)
+            ),
         }
+    }
+}
+
+/// An `f32` printed with six decimals through integer formatting only (`-0.009574`,
+/// `NaN`, `inf`): `core::fmt`'s float formatting is about 20 KiB of flash, a third of the
+/// firmware's budget, and the logs need no more than this.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Micro(pub f32);
+
+impl fmt::Display for Micro {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        if v.is_nan() {
+            return f.write_str("NaN");
+        }
+        if v.is_infinite() {
+            return f.write_str(if v > 0.0 { "inf" } else { "-inf" });
+        }
+        // Whole part and millionths (rounded), in u32 (`as` saturates: 4294967295 for
+        // anything larger, never a command).
+        let a = if v < 0.0 { -v } else { v };
+        let mut whole = a as u32;
+        let mut micro = ((a - whole as f32) * 1e6 + 0.5) as u32;
+        if micro >= 1_000_000 {
+            whole = whole.saturating_add(1);
+            micro -= 1_000_000;
+        }
+        let sign = if v.is_sign_negative() { "-" } else { "" };
+        write!(f, "{sign}{whole}.{micro:06}")
     }
 }
 
@@ -100,6 +136,24 @@ mod tests {
     fn one_step_enters_approach_with_finite_commands() {
         let out = run();
         assert!(out.is_ok(), "{out:?}");
+    }
+
+    #[test]
+    fn micro_prints_six_decimals_without_float_formatting() {
+        let cases = [
+            (-0.009573651_f32, "-0.009574"),
+            (0.16390319, "0.163903"),
+            (0.0, "0.000000"),
+            (-0.0, "-0.000000"),
+            (12.5, "12.500000"),
+            (-1.25e-7, "-0.000000"),
+            (0.9999996, "1.000000"),
+            (f32::NAN, "NaN"),
+            (f32::NEG_INFINITY, "-inf"),
+        ];
+        for (v, want) in cases {
+            assert_eq!(Micro(v).to_string(), want, "{v}");
+        }
     }
 
     #[test]

@@ -40,6 +40,23 @@ impl CostCounter for DwtCounter {
     }
 }
 
+/// The DWT cycle counter with the stack probe (the `bench` feature only: the flight build
+/// does not repaint the stack every step).
+#[cfg(feature = "bench")]
+pub struct DwtBenchCounter;
+
+#[cfg(feature = "bench")]
+impl CostCounter for DwtBenchCounter {
+    const UNIT: CostUnit = CostUnit::Cycles;
+    fn now() -> u32 {
+        cortex_m::peripheral::DWT::cycle_count()
+    }
+    #[inline(always)]
+    fn stack_of<R>(f: impl FnOnce() -> R) -> (R, Option<u32>) {
+        super::stack::probe(f)
+    }
+}
+
 const SCHEDULE: Schedule = if cfg!(feature = "lockstep") {
     Schedule::Lockstep
 } else {
@@ -68,6 +85,14 @@ pub fn start() -> ! {
     );
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+    #[cfg(feature = "bench")]
+    {
+        let c = crate::bench::measure::<DwtBenchCounter>();
+        defmt::info!(
+            "firmware bench: {}",
+            defmt::Display2Format(&crate::bench::Json(&c, "cycles"))
+        );
+    }
 
     let gpioa = dp.GPIOA.split(&mut rcc);
     let _tx = gpioa.pa9.into_alternate::<7>();
@@ -111,6 +136,7 @@ pub fn start() -> ! {
 }
 
 /// Logs an application event over defmt.
+#[inline(never)]
 pub fn log(event: Event) {
     match event {
         Event::ModeChanged { mode, reason, step } => defmt::info!(
@@ -122,6 +148,11 @@ pub fn log(event: Event) {
         ),
         Event::LinkStale => defmt::warn!("link stale: navigation treated as invalid"),
         Event::LinkRecovered => defmt::info!("link recovered"),
+        Event::ControlStack { bytes, step } => defmt::info!(
+            "step {}: control-path stack high-water mark {} B",
+            step,
+            bytes
+        ),
     }
 }
 

@@ -11,7 +11,8 @@
 //! - `free-running`: the free-running schedule (SysTick at 50 Hz);
 //! - `self-test`: the power-on self-test only, its result as QEMU's exit status
 //!   (what `cargo run --target thumbv7em-none-eabihf` does, see `.cargo/config.toml`);
-//! - `bench`: print what a frame costs to decode and encode ([`crate::bench`]), exit 0;
+//! - `bench`: print what each path of the control step, a frame decode and a frame encode
+//!   cost ([`crate::bench`], one JSON line), exit 0;
 //! - `panic-test`: panic once the link is up, to test the fault path (`super::fault`).
 //!
 //! Logs are semihosting text on QEMU's stdout/stderr, never on the serial link (its own
@@ -24,6 +25,7 @@ use stm32f4xx_hal::pac;
 use super::McuBoard;
 use super::fault::{FaultRecord, halt};
 use crate::app::{App, CostCounter, Event, Schedule};
+use crate::one_step::Micro;
 use crate::{bench, one_step};
 
 /// The stack high-water mark, as text ("4628 B" or "unknown").
@@ -53,6 +55,11 @@ impl CostCounter for Tim2Counter {
         unsafe {
             (*pac::TIM2::ptr()).cnt().read().bits()
         }
+    }
+
+    #[inline(always)]
+    fn stack_of<R>(f: impl FnOnce() -> R) -> (R, Option<u32>) {
+        super::stack::probe(f)
     }
 }
 
@@ -113,10 +120,10 @@ pub fn start() -> ! {
                 hprintln!(
                     "firmware: one step ok: mode {:?}, elevator {} rad, throttle {}, aileron {} rad, rudder {} rad",
                     out.mode,
-                    c.elevator_rad,
-                    c.throttle,
-                    c.aileron_rad,
-                    c.rudder_rad
+                    Micro(c.elevator_rad),
+                    Micro(c.throttle),
+                    Micro(c.aileron_rad),
+                    Micro(c.rudder_rad)
                 );
                 debug::exit(debug::EXIT_SUCCESS);
                 halt()
@@ -130,18 +137,7 @@ pub fn start() -> ! {
     }
     if args.has("bench") {
         let c = bench::measure::<Tim2Counter>();
-        hprintln!(
-            "firmware bench (instructions): decode measurement frame ({} B) {} ({} with the \
-             navigation at zero), of which CRC {}; encode command frame ({} B) {}; \
-             controller step {}",
-            c.measurement_frame_len,
-            c.decode_measurement,
-            c.decode_measurement_zero_nav,
-            c.crc_measurement,
-            c.command_frame_len,
-            c.encode_command,
-            c.step
-        );
+        hprintln!("firmware bench: {}", bench::Json(&c, "instructions"));
         hprintln!("firmware bench: stack high-water mark {}", StackMark);
         debug::exit(debug::EXIT_SUCCESS);
         halt()
@@ -183,6 +179,7 @@ pub fn start() -> ! {
 }
 
 /// Logs an application event as a semihosting line.
+#[inline(never)]
 pub fn log(event: Event) {
     match event {
         Event::ModeChanged { mode, reason, step } => hprintln!(
@@ -194,6 +191,11 @@ pub fn log(event: Event) {
         ),
         Event::LinkStale => hprintln!("firmware: link stale: navigation treated as invalid"),
         Event::LinkRecovered => hprintln!("firmware: link recovered"),
+        Event::ControlStack { bytes, step } => hprintln!(
+            "firmware: step {}: control-path stack high-water mark {} B",
+            step,
+            bytes
+        ),
     }
 }
 

@@ -1,0 +1,340 @@
+//! Cheap, exact replacements for the library calls the control step used to make.
+//!
+//! Place in the data flow: none of its own; every stage of the step uses these instead of
+//! `f32::min`/`f32::max` (a library call on the Cortex-M4, `fminf`/`fmaxf`) and
+//! `libm::hypotf` (double-precision arithmetic, in software on the Cortex-M4's
+//! single-precision FPU).
+//!
+//! - [`min_to`] and [`max_to`]: one comparison and a select. They equal `f32::min` and
+//!   `f32::max` for every `x` (NaN included) when the bound is not NaN, which holds at every
+//!   call site (bounds come from a validated configuration). Ties between `+0` and `-0`
+//!   return `x`, as the host's `f32::min`/`max` do (the Cortex-M4's `fminf`/`fmaxf` returned
+//!   the bound; the two builds differed there).
+//! - [`HypotLimit`]: `libm::hypotf(a, b) > limit`, bit-exact for every input, in integer and
+//!   single-precision arithmetic: the square root is replaced by thresholds found once, at
+//!   construction, and `hypotf`'s double-precision sum of squares is rounded exactly as the
+//!   FPU would, in 64-bit integers.
+//!
+//! Invariant: no loops, no recursion, no panics, no allocation (the construction of a
+//! [`HypotLimit`] loops a fixed 32 times per threshold).
+
+/// `x.min(bound)` for a `bound` that is not NaN: one comparison, no call.
+#[inline(always)]
+pub fn min_to(x: f32, bound: f32) -> f32 {
+    if x <= bound { x } else { bound }
+}
+
+/// `x.max(bound)` for a `bound` that is not NaN: one comparison, no call.
+#[inline(always)]
+pub fn max_to(x: f32, bound: f32) -> f32 {
+    if x >= bound { x } else { bound }
+}
+
+/// `x.max(-limit).min(limit)` for a `limit` that is not negative or NaN. Inside the limit
+/// (the common case) one integer comparison of magnitudes decides, without the FPU's
+/// compare-and-transfer-flags pairs.
+#[inline(always)]
+pub fn clamp_sym(x: f32, limit: f32) -> f32 {
+    let a = abs_bits(x);
+    if a <= limit.to_bits() {
+        x
+    } else if (x.to_bits() as i32) < 0 || a > INF_BITS {
+        // Below -limit, or NaN (which `max` replaces by -limit).
+        -limit
+    } else {
+        limit
+    }
+}
+
+/// Bits of `f32::INFINITY`: a magnitude's bits at or above it are not finite.
+pub const INF_BITS: u32 = 0x7F80_0000;
+/// Mask of everything but the sign bit.
+pub const ABS_MASK: u32 = 0x7FFF_FFFF;
+
+/// The bits of `|x|`: for finite or infinite values they order as the magnitudes do.
+#[inline(always)]
+pub fn abs_bits(x: f32) -> u32 {
+    x.to_bits() & ABS_MASK
+}
+
+/// 2^90 and 2^-90: `hypotf`'s scalings of very large and very small arguments.
+const X1P90: f32 = f32::from_bits(0x6c80_0000);
+const X1P_90: f32 = f32::from_bits(0x1280_0000);
+
+/// The scalings `hypotf` applies, in the order of [`HypotLimit`]'s thresholds.
+const SCALES: [f32; 3] = [1.0, X1P90, X1P_90];
+
+/// `libm::hypotf(a, b) > limit`, answered without `hypotf`.
+///
+/// `hypotf(x, y)` (x >= y >= 0 after taking magnitudes and sorting) returns, outside its
+/// special cases, `z * sqrtf((x² + y²) computed in f64, rounded to f32)`, with `x` and `y`
+/// first scaled by `1 / z` (`z` is 1, 2^90 or 2^-90). Both `sqrtf` and the multiplication by
+/// `z` round monotonically, so `z * sqrtf(s) > limit` holds exactly when `s` exceeds a
+/// threshold, one per scaling, found here once by bisection over the `f32` values. At run
+/// time only the sum of squares is computed: the products of the 24-bit significands are
+/// exact in 64-bit integers, and their sum is rounded to 53 bits and then to 24, each to
+/// nearest-even, as the double-precision addition and the conversion to `f32` do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HypotLimit {
+    limit: f32,
+    /// Per scaling: the bits of the smallest `s` (a positive `f32`) with
+    /// `z * sqrtf(s) > limit`; `u32::MAX` when there is none.
+    first_above: [u32; 3],
+}
+
+impl HypotLimit {
+    /// The comparison with `limit` (any value, NaN and infinities included).
+    pub fn new(limit: f32) -> Self {
+        let first_above = SCALES.map(|z| {
+            let above = |bits: u32| z * libm::sqrtf(f32::from_bits(bits)) > limit;
+            if !above(INF_BITS) {
+                return u32::MAX;
+            }
+            // Bisection over the non-negative floats, ordered as their bits: the predicate is
+            // monotone; invariant: !above(lo) or lo == 0 untested, above(hi).
+            if above(0) {
+                return 0;
+            }
+            let (mut lo, mut hi) = (0u32, INF_BITS);
+            for _ in 0..32 {
+                if hi - lo <= 1 {
+                    break;
+                }
+                let mid = lo + (hi - lo) / 2;
+                if above(mid) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            hi
+        });
+        Self { limit, first_above }
+    }
+
+    /// The limit compared with.
+    pub fn limit(&self) -> f32 {
+        self.limit
+    }
+
+    /// True exactly when `libm::hypotf(a, b) > self.limit()`.
+    #[inline]
+    pub fn exceeded_by(&self, a: f32, b: f32) -> bool {
+        let (mut ux, mut uy) = (abs_bits(a), abs_bits(b));
+        if ux < uy {
+            core::mem::swap(&mut ux, &mut uy);
+        }
+        let (x, y) = (f32::from_bits(ux), f32::from_bits(uy));
+        // hypotf's special cases: an infinity, a NaN, a zero, or magnitudes 2^25 apart.
+        if uy == INF_BITS {
+            return f32::INFINITY > self.limit;
+        }
+        if ux >= INF_BITS || uy == 0 || ux - uy >= 25 << 23 {
+            return x + y > self.limit;
+        }
+        let (k, x, y) = if ux >= (0x7f + 60) << 23 {
+            (1, x * X1P_90, y * X1P_90)
+        } else if uy < (0x7f - 60) << 23 {
+            (2, x * X1P90, y * X1P90)
+        } else {
+            (0, x, y)
+        };
+        sum_of_squares_bits(x, y) >= self.first_above[k]
+    }
+}
+
+/// The bits of `(x as f64 * x as f64 + y as f64 * y as f64) as f32` for normal `x >= y > 0`
+/// whose squares and their sum lie in the normal range of `f32` (what `hypotf` computes
+/// after its special cases and scaling), in integer arithmetic.
+#[inline(always)]
+fn sum_of_squares_bits(x: f32, y: f32) -> u32 {
+    let (bx, by) = (x.to_bits(), y.to_bits());
+    let (ex, ey) = (bx >> 23, by >> 23); // biased exponents, ex >= ey
+    let mx = (bx & 0x007F_FFFF) | 0x0080_0000;
+    let my = (by & 0x007F_FFFF) | 0x0080_0000;
+    // x² = mx² 2^(2 ex - 300), exactly; likewise y². mx², my² lie in [2^46, 2^48).
+    let (a, b) = (u64::from(mx) * u64::from(mx), u64::from(my) * u64::from(my));
+    // Both squares on x²'s scale times 2^15 (the sum then fits 64 bits). The bits of y²
+    // shifted out only matter as a sticky bit: they are non-zero exactly when y²'s trailing
+    // zeros (twice my's) are fewer than the shift. d is 0..=50, except when y was subnormal
+    // before hypotf scaled it up (then up to 96).
+    let d = 2 * (ex - ey);
+    let (t, sticky) = if d < 64 {
+        (
+            (a << 15) + ((b << 15) >> d),
+            15 + 2 * my.trailing_zeros() < d,
+        )
+    } else {
+        (a << 15, true)
+    };
+    // t has 61 to 64 bits: normalise it to 64, then round to 53 (double precision),
+    // nearest-even, the sticky bit breaking ties.
+    let n = t.leading_zeros(); // 0..=3
+    let tn = t << n;
+    let keep = tn >> 11;
+    let rem = tn & 0x7FF;
+    let up = rem > 0x400 || (rem == 0x400 && (sticky || keep & 1 == 1));
+    let d53 = keep + u64::from(up); // 2^52..=2^53: exact in double precision
+    // Round the double to 24 bits, nearest-even (no sticky: the double is exact).
+    let m0 = d53 >> 29;
+    let rem2 = d53 & 0x1FFF_FFFF;
+    let up2 = rem2 > 0x1000_0000 || (rem2 == 0x1000_0000 && m0 & 1 == 1);
+    let m = (m0 + u64::from(up2)) as u32; // 2^23..=2^24
+    // Value: m 2^(2 ex - 300 - 15 + (11 - n) + 29). A significand of 2^24 carries into the
+    // exponent, which the addition below does by itself (0x0080_0000 is the exponent's
+    // lowest bit).
+    let exponent = 2 * ex - 125 - n;
+    (exponent << 23) + (m - 0x0080_0000)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(h: &HypotLimit, a: f32, b: f32) {
+        assert_eq!(
+            h.exceeded_by(a, b),
+            libm::hypotf(a, b) > h.limit(),
+            "hypotf({a:e}, {b:e}) = {:e} vs {:e}",
+            libm::hypotf(a, b),
+            h.limit()
+        );
+    }
+
+    /// A small deterministic generator (xorshift), so the test needs no dependency.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 16) as u32
+        }
+    }
+
+    #[test]
+    fn min_max_match_the_std_ones_for_non_nan_bounds() {
+        let v = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+            3.5,
+        ];
+        for x in v {
+            for b in v.into_iter().filter(|b| !b.is_nan()) {
+                assert_eq!(min_to(x, b).to_bits(), x.min(b).to_bits(), "min({x}, {b})");
+                assert_eq!(max_to(x, b).to_bits(), x.max(b).to_bits(), "max({x}, {b})");
+            }
+        }
+    }
+
+    #[test]
+    fn clamp_sym_matches_std_for_non_negative_limits() {
+        let v = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            2.0,
+            -2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-45,
+            -1e-45,
+        ];
+        for x in v {
+            for limit in [0.0, 1e-45, 1.0, 2.0, f32::INFINITY] {
+                assert_eq!(
+                    clamp_sym(x, limit).to_bits(),
+                    x.max(-limit).min(limit).to_bits(),
+                    "clamp_sym({x}, {limit})"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sum_of_squares_rounds_as_double_then_single_precision() {
+        let mut r = Rng(0x9E37_79B9_7F4A_7C15);
+        for _ in 0..200_000 {
+            let ex = 127 - 60 + r.next() % 120;
+            let x = f32::from_bits((ex << 23) | (r.next() & 0x7F_FFFF));
+            let y = f32::from_bits(
+                (ex.saturating_sub(r.next() % 26).max(67) << 23) | (r.next() & 0x7F_FFFF),
+            );
+            let (x, y) = if y > x { (y, x) } else { (x, y) };
+            let want = (f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y)) as f32;
+            assert_eq!(sum_of_squares_bits(x, y), want.to_bits(), "{x:e} {y:e}");
+        }
+        // hypotf's up-scaling of a subnormal y (and an x less than 2^25 ulps above it).
+        for _ in 0..50_000 {
+            let uy = 1 + r.next() % 0x007F_FFFF;
+            let ux = uy + r.next() % (25 << 23);
+            let (x, y) = (f32::from_bits(ux) * X1P90, f32::from_bits(uy) * X1P90);
+            let want = (f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y)) as f32;
+            assert_eq!(sum_of_squares_bits(x, y), want.to_bits(), "{x:e} {y:e}");
+        }
+    }
+
+    #[test]
+    fn equals_hypotf_comparison_everywhere() {
+        let mut r = Rng(0x2545_F491_4F6C_DD1D);
+        let specials = [
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            1e-45,
+            0.3,
+            -0.3,
+            0.2121,
+            1e30,
+            1e-30,
+            3e18,
+            2e-19,
+        ];
+        let limits = [
+            0.3,
+            0.0,
+            -1.0,
+            1e-40,
+            1e-30,
+            1e20,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        let random_limits: [f32; 40] =
+            core::array::from_fn(|_| f32::from_bits(r.next() & ABS_MASK));
+        for limit in limits.into_iter().chain(random_limits) {
+            let h = HypotLimit::new(limit);
+            for a in specials {
+                for b in specials {
+                    check(&h, a, b);
+                }
+            }
+            for _ in 0..4_000 {
+                check(&h, f32::from_bits(r.next()), f32::from_bits(r.next()));
+                // Near the limit: points on (and about) the circle of radius `limit`.
+                let t = (r.next() % 1000) as f32 / 1000.0;
+                let (s, c) = (libm::sinf(t), libm::cosf(t));
+                let l = if limit.is_finite() { limit } else { 1.0 };
+                let (a, b) = (l * c, l * s);
+                let nudge = |v: f32, k: u32| {
+                    f32::from_bits(v.to_bits().wrapping_add(k % 5).wrapping_sub(2))
+                };
+                check(&h, nudge(a, r.next()), nudge(b, r.next()));
+                check(&h, l, f32::from_bits(r.next() % 0x0200_0000));
+            }
+        }
+    }
+}

@@ -1,0 +1,74 @@
+//! # nopanic: a link-time proof that the flight code cannot panic
+//!
+//! This binary calls [`Controller::new`] on an arbitrary configuration and
+//! [`Controller::step`] on arbitrary inputs (both through `black_box`, so the optimiser must
+//! keep every path), then the link code on arbitrary bytes: [`FrameDecoder::feed`], the
+//! measurement frame's deserialisation and [`encode_downlink`]. Its panic handler calls a
+//! function that does not exist. The release build (LTO, dead code removed) therefore links
+//! only if no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow
+//! check or an `unreachable!` that the optimiser could not prove dead would keep the panic
+//! handler, and with it the undefined symbol
+//! `a_panic_is_reachable_from_the_flight_code`, and the link fails naming it.
+//!
+//! It is built with the firmware (`cargo build -p firmware --target thumbv7em-none-eabihf
+//! --release`, both boards), so the check runs wherever the firmware is built; it is never
+//! flashed. Debug builds keep their panic paths (no optimisation), so there the handler just
+//! loops and nothing is checked. On the host it is an empty program.
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+#[cfg(target_os = "none")]
+mod target {
+    use core::hint::black_box;
+
+    use cortex_m_rt::entry;
+    use ibvs_core::wire::{Downlink, FrameDecoder, MAX_FRAME_LEN, encode_downlink};
+    use ibvs_core::{Controller, ControllerConfig, ControllerInput};
+    // The device's interrupt vectors (cortex-m-rt's link script needs them).
+    use stm32f4xx_hal as _;
+
+    #[entry]
+    fn main() -> ! {
+        let mut decoder = FrameDecoder::new();
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        loop {
+            // The controller: any configuration, any input.
+            if let Ok(mut controller) = Controller::new(black_box(ControllerConfig::default())) {
+                for _ in 0..black_box(2u32) {
+                    let input: ControllerInput = black_box(ControllerInput::default());
+                    black_box(controller.step(&input));
+                }
+            }
+            // The link: any byte, any command frame.
+            if let Some(frame) = decoder.feed(black_box(0u8)) {
+                black_box(frame.and_then(|p| p.uplink()).is_ok());
+            }
+            black_box(encode_downlink(&black_box(Downlink::default()), &mut buf).is_ok());
+        }
+    }
+
+    #[cfg(not(debug_assertions))]
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
+        // Note(unsafe): never called; the symbol does not exist, so this handler makes the
+        // link fail if anything can reach it (see the crate doc).
+        #[allow(unsafe_code)]
+        unsafe extern "C" {
+            fn a_panic_is_reachable_from_the_flight_code() -> !;
+        }
+        #[allow(unsafe_code)]
+        unsafe {
+            a_panic_is_reachable_from_the_flight_code()
+        }
+    }
+
+    #[cfg(debug_assertions)]
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
+        loop {}
+    }
+}
+
+/// Host builds: nothing to check here (the check is the target link).
+#[cfg(not(target_os = "none"))]
+fn main() {}

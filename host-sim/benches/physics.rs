@@ -1,0 +1,71 @@
+//! Criterion benchmark of one physics step of the simulator: what `host_sim::sim::run`
+//! integrates `plant_substeps` times per control period.
+//!
+//! - `physics/receiver_rk4`: the nonlinear F-16 alone, one RK4 step of 0.01 s at trim, calm
+//!   air (four evaluations of the aerodynamic tables, the engine and the actuators);
+//! - `physics/full_world_substep`: the same step inside the full environment of the
+//!   `paper-level2` preset: the air at the receiver (Dryden turbulence, tanker wake), the
+//!   20-link hose and drogue advanced (RK4 with projection, tridiagonal tension solve), then
+//!   the receiver;
+//! - `physics/camera_frame`: one LED-camera frame of the drogue (projection, noise, circle
+//!   fit), once per control period.
+//!
+//! Each iteration starts from the same state (a clone made outside the timed region), so the
+//! figures do not drift with the simulated time. Run with
+//! `cargo bench -p host-sim --bench physics`; whole dockings are in `--bench docking`.
+
+use std::hint::black_box;
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use host_sim::receiver::{F16, Wind};
+use host_sim::scenario::ScenarioFile;
+use host_sim::sim::build_world;
+use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS};
+
+/// One plant substep, s (two per 20 ms control period).
+const DT_S: f64 = 0.01;
+
+fn benches(c: &mut Criterion) {
+    let model = F16::new(NOMINAL_XCG).expect("F-16 data");
+    let trim = model
+        .trim_straight_level(REFUELLING_SPEED_MPS, REFUELLING_ALTITUDE_M)
+        .expect("trim");
+    let scenario = ScenarioFile::load("paper-level2")
+        .expect("preset")
+        .scenario();
+    let world = build_world(&scenario, &trim, DT_S).expect("world");
+    let x0 = trim.state;
+    let cmd = trim.command;
+
+    let mut group = c.benchmark_group("physics");
+    group.bench_function("receiver_rk4", |b| {
+        b.iter_batched_ref(
+            || x0,
+            |x| model.step_rk4(x, black_box(&cmd), &Wind::default(), DT_S),
+            BatchSize::SmallInput,
+        );
+    });
+    group.bench_function("full_world_substep", |b| {
+        b.iter_batched_ref(
+            || (world.clone(), x0),
+            |(w, x)| {
+                let t = 1.0;
+                let wind = w.receiver_wind(x, t);
+                w.step(DT_S, x, t);
+                model.step_rk4(x, black_box(&cmd), &wind, DT_S);
+            },
+            BatchSize::SmallInput,
+        );
+    });
+    group.bench_function("camera_frame", |b| {
+        b.iter_batched_ref(
+            || world.clone(),
+            |w| w.capture(black_box(&x0), 1.0),
+            BatchSize::SmallInput,
+        );
+    });
+    group.finish();
+}
+
+criterion_group!(physics, benches);
+criterion_main!(physics);

@@ -1,0 +1,613 @@
+//! # target-bench: what the flight controller costs on its MCU, as one JSON document
+//!
+//! ```sh
+//! cargo run --release -p host-sim --bin target-bench                 # the JSON of issue 5
+//! cargo run --release -p host-sim --bin target-bench -- --detail     # plus every workload
+//! cargo run --release -p host-sim --bin target-bench -- --check benchmarks/expected.json
+//! ```
+//!
+//! Method (`docs/benchmarks.md`):
+//! 1. Record: the in-process controller (default configuration, the one the firmware runs)
+//!    flies several docking scenarios in the simulator (calm air with the wake, hose and LED
+//!    camera; the ideal world; level II turbulence; the bow wave; 50 % frame loss; two runs
+//!    that break away), and every step's [`ControllerInput`] is kept. Two more input
+//!    sequences are derived from recorded ones: the navigation lost mid-approach (hold, then
+//!    breakaway open loop) and a docking held then lost (docked, then breakaway).
+//! 2. Replay: each sequence goes through the `qemu` firmware in QEMU's emulated STM32F405
+//!    (`host_sim::pil`, lockstep, `-icount shift=0`: TIM2 counts instructions exactly), one
+//!    measurement frame per step. Every command frame must equal the in-process controller's
+//!    output for the same input (bit for bit on every field); its `Cost` gives the step's,
+//!    the frame decode's and the previous frame encode's instructions. The firmware paints
+//!    the stack below the stack pointer before each step and scans it after, and logs each
+//!    new maximum (the control path's stack high-water mark).
+//! 3. Sizes: flash (vector table, code, read-only data, initial values of `.data`) and static
+//!    RAM (`.data`, `.bss`, `.uninit`) read from the section headers of both boards' ELFs.
+//!
+//! The `f405` board cannot run under QEMU (its clock setup waits for a crystal QEMU does not
+//! emulate): its step, codec and stack figures are `null` here and are measured on the board
+//! in DWT cycles (`docs/benchmarks.md`, "On hardware").
+//!
+//! Firmware ELFs: `--qemu-elf` / `IBVS_FIRMWARE_ELF` and `--f405-elf` /
+//! `IBVS_FIRMWARE_F405_ELF`; otherwise both are built (release, in their own target
+//! directories under the workspace's target directory, so this also runs inside `cargo test`).
+//!
+//! Static bound (when `arm-none-eabi-objdump` is installed, [`wcet`]): the longest path
+//! through `Controller::step`'s machine code in each ELF, callees included, the PBVS law
+//! excluded (the firmware flies IBVS); `step_instructions_bound`, `null` without objdump.
+//!
+//! `--check FILE` compares the step's maximum instructions, the control-path stack and the
+//! flash of each board with the expectations in FILE (`benchmarks/expected.json`) and exits
+//! with status 1 when one grew past its expectation plus the file's tolerance.
+
+mod elf;
+mod wcet;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+
+use clap::Parser;
+use host_sim::pil::{self, PilFlightComputer};
+use host_sim::scenario::{ScenarioFile, TABLE_1};
+use host_sim::sim::{self, FlightComputer, Scenario};
+use ibvs_core::nav::NavSample;
+use ibvs_core::wire::CostUnit;
+use ibvs_core::{Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode};
+use serde::Serialize;
+use serde_json::{Value, json};
+
+/// Environment variable naming a prebuilt `f405` firmware ELF.
+const F405_ELF_ENV: &str = "IBVS_FIRMWARE_F405_ELF";
+
+/// The semihosting log line of a new control-path stack maximum (firmware `board::qemu`).
+const CONTROL_STACK_MARK: &str = "control-path stack high-water mark ";
+/// The semihosting log line fragment of the whole firmware's stack high-water mark.
+const FIRMWARE_STACK_MARK: &str = "; stack high-water mark ";
+
+#[derive(Parser)]
+#[command(
+    name = "target-bench",
+    about = "Target benchmarks of the flight controller (QEMU's STM32F405, both boards' sizes) as JSON"
+)]
+struct Args {
+    /// The `qemu` board's ELF (default: `IBVS_FIRMWARE_ELF`, or build it).
+    #[arg(long, value_name = "PATH")]
+    qemu_elf: Option<PathBuf>,
+    /// The `f405` board's ELF (default: `IBVS_FIRMWARE_F405_ELF`, or build it).
+    #[arg(long, value_name = "PATH")]
+    f405_elf: Option<PathBuf>,
+    /// Add every workload's figures (per scenario and per mode) under `"detail"`.
+    #[arg(long)]
+    detail: bool,
+    /// Sizes and static bounds only: no replay through QEMU (quick; step, codec and stack
+    /// figures are `null`).
+    #[arg(long, conflicts_with = "check")]
+    no_pil: bool,
+    /// Compare with the expectations in this file; exit 1 on a regression.
+    #[arg(long, value_name = "FILE")]
+    check: Option<PathBuf>,
+}
+
+/// One input sequence to replay through the firmware.
+struct Workload {
+    name: &'static str,
+    what: String,
+    inputs: Vec<ControllerInput>,
+}
+
+/// Records every input the controller sees while it flies.
+struct Recorder {
+    controller: Controller,
+    inputs: Vec<ControllerInput>,
+}
+
+impl FlightComputer for Recorder {
+    fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
+        self.inputs.push(*input);
+        self.controller.step(input)
+    }
+}
+
+type Error = Box<dyn std::error::Error>;
+
+/// Flies `scenario` in-process with the default configuration; its inputs and outcome.
+fn record(scenario: &Scenario) -> Result<(Vec<ControllerInput>, String), Error> {
+    let mut rec = Recorder {
+        controller: Controller::new(ControllerConfig::default())?,
+        inputs: Vec::new(),
+    };
+    let run = sim::run(scenario, &mut rec)?;
+    let s = &run.summary;
+    let outcome = match (&s.breakaway_reason, s.miss_m) {
+        (Some(r), _) => format!("{:?} ({r})", s.outcome),
+        (None, Some(m)) => format!("{:?}, miss {m:.3} m", s.outcome),
+        (None, None) => format!("{:?}", s.outcome),
+    };
+    Ok((rec.inputs, outcome.to_lowercase()))
+}
+
+/// A preset scenario flown with the firmware's configuration (Table 1 gains, a = 0.8 m/s,
+/// the camera where the controller believes it is); `edit` adjusts the file first.
+fn preset(name: &str, seed: u64, edit: impl FnOnce(&mut ScenarioFile)) -> Result<Scenario, Error> {
+    let mut f = ScenarioFile::load(name)?;
+    f.seed = seed;
+    f.gains.k = TABLE_1;
+    f.gains.min_closing_mps =
+        f64::from(ControllerConfig::default().velocity_limits.min_closing_mps);
+    edit(&mut f);
+    if f.controller_config() != ControllerConfig::default() {
+        return Err(format!(
+            "scenario {name}: the firmware runs the default controller configuration only"
+        )
+        .into());
+    }
+    Ok(f.scenario())
+}
+
+/// The workloads: recorded dockings and two derived input sequences.
+fn workloads() -> Result<Vec<Workload>, Error> {
+    let mut out = Vec::new();
+    let flown: [(&'static str, &str, Scenario); 7] = [
+        (
+            "calm",
+            "default scenario: calm air, tanker wake, hose and drogue, LED camera",
+            Scenario::default(),
+        ),
+        (
+            "ideal",
+            "calm air, drogue at its trail, ideal camera",
+            Scenario::ideal(),
+        ),
+        (
+            "turbulence",
+            "paper-level2 seed 1: level II turbulence (0.7 m/s)",
+            preset("paper-level2", 1, |_| {})?,
+        ),
+        (
+            "bow-wave",
+            "paper-bow-wave seed 1 with Table 1 gains: bow wave, level I turbulence",
+            preset("paper-bow-wave", 1, |_| {})?,
+        ),
+        (
+            "image-loss",
+            "paper-level1 seed 1, half of the camera frames lost",
+            preset("paper-level1", 1, |f| f.camera.drop_probability = 0.5)?,
+        ),
+        (
+            "breakaway-miss",
+            "paper-level2 seed 8: passes the drogue plane 0.30 m off, breaks away",
+            preset("paper-level2", 8, |_| {})?,
+        ),
+        (
+            "breakaway-image-lost",
+            "paper-level1 seed 1, 80 % of the frames lost: measurement lost, breaks away",
+            preset("paper-level1", 1, |f| f.camera.drop_probability = 0.8)?,
+        ),
+    ];
+    let mut calm = Vec::new();
+    let mut ideal = Vec::new();
+    for (name, what, scenario) in flown {
+        let (inputs, outcome) = record(&scenario)?;
+        match name {
+            "calm" => calm.clone_from(&inputs),
+            "ideal" => ideal.clone_from(&inputs),
+            _ => {}
+        }
+        out.push(Workload {
+            name,
+            what: format!("{what}; {outcome}"),
+            inputs,
+        });
+    }
+
+    // The calm docking's inputs with the navigation invalid (NaN) from step 200 on: 25 held
+    // steps, then breakaway without navigation, open loop.
+    let mut nav_lost = calm;
+    for input in nav_lost.iter_mut().skip(200) {
+        input.nav = NavSample::from_array([f32::NAN; 12]);
+    }
+    out.push(Workload {
+        name: "nav-loss",
+        what: "the calm docking's inputs, navigation NaN from step 200: hold, breakaway open loop"
+            .into(),
+        inputs: nav_lost,
+    });
+
+    // The ideal docking's inputs, then 50 steps docked and 100 with the contact lost.
+    let mut docked = ideal;
+    let last = *docked.last().ok_or("the ideal docking recorded no step")?;
+    for k in 1..=150u32 {
+        let mut input = last;
+        input.measurement.seq = last.measurement.seq.wrapping_add(k);
+        input.measurement.tracked = false;
+        input.probe_contact = k <= 50;
+        docked.push(input);
+    }
+    out.push(Workload {
+        name: "docked-contact-lost",
+        what: "the ideal docking's inputs, 50 steps docked, then contact lost: breakaway".into(),
+        inputs: docked,
+    });
+    Ok(out)
+}
+
+/// The control step's symbol, whose static bound is reported.
+const STEP_SYMBOL: &str = "ibvs_core::controller::Controller::step";
+/// The PBVS law, left out of the bound (the firmware flies IBVS).
+const PBVS_SYMBOL: &str = "ibvs_core::outer::pbvs";
+
+/// The JSON document (issue 5's keys per board, and the static bound).
+#[derive(Serialize)]
+struct Report {
+    qemu: BoardReport,
+    f405: BoardReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    detail: Option<Value>,
+}
+
+/// One board's figures; `null` where the board cannot be measured here.
+#[derive(Serialize)]
+struct BoardReport {
+    /// Over every step of every workload.
+    step_instructions: Option<Spread>,
+    /// The longest path through the step's machine code (`null` without objdump).
+    step_instructions_bound: Option<u64>,
+    /// The dearest measurement frame decode.
+    decode_instructions: Option<u32>,
+    /// The dearest command frame encode.
+    encode_instructions: Option<u32>,
+    /// The control path's stack high-water mark, bytes.
+    stack_bytes: Option<u32>,
+    /// The step's stack from its machine code: its frame and its deepest callee's (`null`
+    /// without objdump).
+    stack_bytes_bound: Option<u64>,
+    flash_bytes: u64,
+    ram_bytes: u64,
+}
+
+/// Min, median (upper for an even count) and max.
+#[derive(Debug, Clone, Copy, Serialize)]
+struct Spread {
+    min: u32,
+    median: u32,
+    max: u32,
+}
+
+impl Spread {
+    fn of(v: &[u32]) -> Option<Self> {
+        let mut s = v.to_vec();
+        s.sort_unstable();
+        Some(Self {
+            min: *s.first()?,
+            median: s[s.len() / 2],
+            max: *s.last()?,
+        })
+    }
+}
+
+/// What one replay measured.
+struct Replay {
+    step: Vec<u32>,
+    decode: Vec<u32>,
+    encode: Vec<u32>,
+    by_mode: BTreeMap<String, Vec<u32>>,
+    control_stack: Option<u32>,
+    firmware_stack: Option<u32>,
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Standby => "standby",
+        Mode::Approach => "approach",
+        Mode::Terminal => "terminal",
+        Mode::Docked => "docked",
+        Mode::Breakaway => "breakaway",
+    }
+}
+
+/// The largest `N` of the log lines containing `mark` followed by `N B`.
+fn max_mark(log: &str, mark: &str) -> Option<u32> {
+    log.lines()
+        .filter_map(|l| {
+            let rest = &l[l.find(mark)? + mark.len()..];
+            rest.split(' ').next()?.parse::<u32>().ok()
+        })
+        .max()
+}
+
+/// Replays `inputs` through the firmware at `elf`, checking every output against the
+/// in-process controller's.
+fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
+    let mut reference = Controller::new(ControllerConfig::default())?;
+    let mut fw = PilFlightComputer::spawn(elf)?;
+    let mut r = Replay {
+        step: Vec::new(),
+        decode: Vec::new(),
+        encode: Vec::new(),
+        by_mode: BTreeMap::new(),
+        control_stack: None,
+        firmware_stack: None,
+    };
+    for (k, input) in w.inputs.iter().enumerate() {
+        let before = reference.mode();
+        let want = reference.step(input);
+        let d = fw
+            .try_step(input)
+            .map_err(|e| format!("{}: step {k}: {e}", w.name))?;
+        if d.output != want {
+            return Err(format!(
+                "{}: step {k}: the firmware's output differs from the in-process controller's:\n\
+                 firmware {:?}\nin-process {want:?}",
+                w.name, d.output
+            )
+            .into());
+        }
+        if d.cost.unit != CostUnit::Instructions {
+            return Err(format!(
+                "{}: the firmware reports {:?}, not instructions",
+                w.name, d.cost.unit
+            )
+            .into());
+        }
+        r.step.push(d.cost.step);
+        r.decode.push(d.cost.decode);
+        if k > 0 {
+            // The first frame carries the boot frame's encoding.
+            r.encode.push(d.cost.encode_prev);
+        }
+        let key = if before == want.mode {
+            mode_name(want.mode).to_string()
+        } else {
+            format!("{} -> {}", mode_name(before), mode_name(want.mode))
+        };
+        r.by_mode.entry(key).or_default().push(d.cost.step);
+    }
+    let (_, log) = fw.shutdown();
+    r.control_stack = max_mark(&log, CONTROL_STACK_MARK);
+    r.firmware_stack = max_mark(&log, FIRMWARE_STACK_MARK);
+    if r.control_stack.is_none() {
+        return Err(format!(
+            "{}: the firmware logged no control-path stack mark:\n{log}",
+            w.name
+        )
+        .into());
+    }
+    Ok(r)
+}
+
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| workspace_root().join("target"), PathBuf::from)
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// Builds the `f405` board (release) into its own target directory; the ELF.
+fn build_f405() -> Result<PathBuf, Error> {
+    let dir = target_dir().join("bench-firmware-f405");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .current_dir(workspace_root())
+        .args([
+            "build",
+            "-p",
+            "firmware",
+            "--release",
+            "--target",
+            pil::FIRMWARE_TARGET,
+        ])
+        .args([
+            "--no-default-features",
+            "--features",
+            "f405",
+            "--target-dir",
+        ])
+        .arg(&dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .stdin(Stdio::null())
+        .output()?;
+    if !out.status.success() {
+        return Err(format!(
+            "building the f405 firmware failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+        .into());
+    }
+    Ok(dir
+        .join(pil::FIRMWARE_TARGET)
+        .join("release")
+        .join("firmware"))
+}
+
+fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
+    match arg {
+        Some(p) => Ok(p),
+        None => Ok(pil::firmware_elf()?),
+    }
+}
+
+fn f405_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
+    match arg.or_else(|| std::env::var_os(F405_ELF_ENV).map(PathBuf::from)) {
+        Some(p) => Ok(p),
+        None => build_f405(),
+    }
+}
+
+/// Compares `report` with the expectations file; the regressions (empty: none).
+fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
+    let text = std::fs::read_to_string(expected_path)
+        .map_err(|e| format!("{}: {e}", expected_path.display()))?;
+    let expected: Value = serde_json::from_str(&text)?;
+    let tolerance = expected["tolerance_percent"]
+        .as_f64()
+        .ok_or("expectations: tolerance_percent missing")?;
+    let mut regressions = Vec::new();
+    for (board, metric, path) in [
+        (
+            "qemu",
+            "step_instructions_max",
+            &["step_instructions", "max"][..],
+        ),
+        ("qemu", "stack_bytes", &["stack_bytes"][..]),
+        ("qemu", "flash_bytes", &["flash_bytes"][..]),
+        ("f405", "flash_bytes", &["flash_bytes"][..]),
+    ] {
+        let want = expected[board][metric]
+            .as_f64()
+            .ok_or_else(|| format!("expectations: {board}.{metric} missing"))?;
+        let got = path
+            .iter()
+            .fold(&report[board], |v, k| &v[*k])
+            .as_f64()
+            .ok_or_else(|| format!("measured: {board}.{metric} missing"))?;
+        let limit = want * (1.0 + tolerance / 100.0);
+        let verdict = if got > limit {
+            regressions.push(format!(
+                "{board}.{metric}: {got} > expected {want} + {tolerance} % ({limit:.0})"
+            ));
+            "REGRESSION"
+        } else if got < want * (1.0 - 2.0 * tolerance / 100.0) {
+            "better than expected: lower the expectation"
+        } else {
+            "ok"
+        };
+        eprintln!(
+            "check {board}.{metric}: measured {got}, expected {want} (+{tolerance} %): {verdict}"
+        );
+    }
+    Ok(regressions)
+}
+
+fn run(args: Args) -> Result<bool, Error> {
+    let qemu = qemu_elf(
+        args.qemu_elf
+            .or_else(|| std::env::var_os(pil::FIRMWARE_ELF_ENV).map(PathBuf::from)),
+    )?;
+    let f405 = f405_elf(args.f405_elf)?;
+
+    let mut all_step = Vec::new();
+    let mut all_decode = Vec::new();
+    let mut all_encode = Vec::new();
+    let mut control_stack = 0u32;
+    let mut detail = Vec::new();
+    let workloads = if args.no_pil {
+        Vec::new()
+    } else {
+        workloads()?
+    };
+    for w in workloads {
+        eprintln!(
+            "target-bench: {} ({} steps): {}",
+            w.name,
+            w.inputs.len(),
+            w.what
+        );
+        let r = replay(&qemu, &w)?;
+        all_step.extend_from_slice(&r.step);
+        all_decode.extend_from_slice(&r.decode);
+        all_encode.extend_from_slice(&r.encode);
+        control_stack = control_stack.max(r.control_stack.unwrap_or(0));
+        let by_mode: BTreeMap<&String, Value> = r
+            .by_mode
+            .iter()
+            .map(|(k, v)| {
+                (
+                    k,
+                    json!({ "steps": v.len(), "instructions": Spread::of(v) }),
+                )
+            })
+            .collect();
+        detail.push(json!({
+            "workload": w.name,
+            "what": w.what,
+            "steps": w.inputs.len(),
+            "step_instructions": Spread::of(&r.step),
+            "step_instructions_by_mode": by_mode,
+            "decode_instructions": Spread::of(&r.decode),
+            "encode_instructions": Spread::of(&r.encode),
+            "control_stack_bytes": r.control_stack,
+            "firmware_stack_bytes": r.firmware_stack,
+        }));
+    }
+    let qemu_sizes = elf::sizes(&qemu)?;
+    let f405_sizes = elf::sizes(&f405)?;
+    let bound = |elf: &Path| -> Result<wcet::Bound, String> {
+        wcet::Disassembly::of(elf)?.bound(STEP_SYMBOL, &[PBVS_SYMBOL])
+    };
+    let (qemu_bound, f405_bound) = (bound(&qemu), bound(&f405));
+    for (board, b) in [("qemu", &qemu_bound), ("f405", &f405_bound)] {
+        if let Err(e) = b {
+            eprintln!("target-bench: no static bound for {board}: {e}");
+        }
+    }
+    let report = Report {
+        qemu: BoardReport {
+            step_instructions: Spread::of(&all_step),
+            step_instructions_bound: qemu_bound
+                .as_ref()
+                .ok()
+                .map(|b| b.longest_path_instructions),
+            decode_instructions: all_decode.iter().max().copied(),
+            encode_instructions: all_encode.iter().max().copied(),
+            stack_bytes: (!args.no_pil).then_some(control_stack),
+            stack_bytes_bound: qemu_bound.as_ref().ok().map(|b| b.stack_bytes),
+            flash_bytes: qemu_sizes.flash_bytes,
+            ram_bytes: qemu_sizes.ram_bytes,
+        },
+        f405: BoardReport {
+            step_instructions: None,
+            step_instructions_bound: f405_bound
+                .as_ref()
+                .ok()
+                .map(|b| b.longest_path_instructions),
+            decode_instructions: None,
+            encode_instructions: None,
+            stack_bytes: None,
+            stack_bytes_bound: f405_bound.as_ref().ok().map(|b| b.stack_bytes),
+            flash_bytes: f405_sizes.flash_bytes,
+            ram_bytes: f405_sizes.ram_bytes,
+        },
+        detail: args.detail.then(|| {
+            json!({
+                "steps": all_step.len(),
+                "decode_instructions": Spread::of(&all_decode),
+                "encode_instructions": Spread::of(&all_encode),
+                "workloads": detail,
+                "static_bound": {
+                    "qemu": qemu_bound.as_ref().map_err(String::as_str).ok(),
+                    "f405": f405_bound.as_ref().map_err(String::as_str).ok(),
+                },
+                "elves": { "qemu": qemu, "f405": f405 },
+            })
+        }),
+    };
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    let report = serde_json::to_value(&report)?;
+    match args.check {
+        None => Ok(true),
+        Some(path) => {
+            let regressions = check(&report, &path)?;
+            for r in &regressions {
+                eprintln!("target-bench: regression: {r}");
+            }
+            Ok(regressions.is_empty())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("target-bench: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,38 @@
+//! The regression gate of the target benchmarks (issue 5): the control step's maximum
+//! instructions, the control path's stack and each board's flash must not grow past the
+//! checked-in expectations (`benchmarks/expected.json`, with its stated tolerance).
+//!
+//! It runs the benchmark runner (`target-bench --check`): every recorded docking workload
+//! replayed through the `qemu` firmware in QEMU (exact instruction counts), the ELFs' sizes.
+//! The firmware ELFs: `IBVS_FIRMWARE_ELF` (qemu board) and `IBVS_FIRMWARE_F405_ELF` (f405
+//! board) when set, as `scripts/test-all.sh` does; otherwise the runner builds them in their
+//! own target directories. Needs `qemu-system-arm`, like the PIL tests.
+//!
+//! When a change makes a figure grow on purpose, update the expectation in the same change
+//! (`docs/benchmarks.md`, "Updating the expectations"): that is the reviewed decision.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn step_instructions_stack_and_flash_stay_within_the_expectations() {
+    let expected = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("benchmarks")
+        .join("expected.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_target-bench"))
+        .arg("--check")
+        .arg(&expected)
+        .output()
+        .expect("running target-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stderr}\n{stdout}");
+    assert!(
+        out.status.success(),
+        "target-bench --check {} failed ({}): a figure grew past its expectation, or the \
+         benchmark could not run; see its output above",
+        expected.display(),
+        out.status
+    );
+}
