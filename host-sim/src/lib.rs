@@ -18,6 +18,7 @@
 
 pub mod docking;
 pub mod linearize;
+pub mod montecarlo;
 pub mod output;
 pub mod paper;
 pub mod pil;

@@ -9,6 +9,9 @@
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
 //! host-sim paper     [--out DIR] [--seeds N]
+//! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M] [--out DIR]
+//! host-sim montecarlo --scenario NAME|PATH --show-run I
+//! host-sim montecarlo merge DIR... [--out DIR]
 //! ```
 //!
 //! Exit status: 0 on success (for `dock`: the run completed, whatever its outcome), 1 on an
@@ -18,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use host_sim::montecarlo::{self, CampaignMeta, Shard};
 use host_sim::receiver::F16;
 use host_sim::scenario::{Law, PRESETS, ScenarioFile};
 use host_sim::sim::{self, Run};
@@ -120,6 +124,47 @@ enum Command {
         #[arg(long, default_value_t = paper::DEFAULT_SEEDS)]
         seeds: u64,
     },
+    /// Monte Carlo campaign: many dockings of one scenario, dispersed per run by its
+    /// `[dispersion]` table; statistics, per-run records and plots (docs/scenarios.md).
+    Montecarlo(MonteCarloArgs),
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+struct MonteCarloArgs {
+    #[command(subcommand)]
+    action: Option<MonteCarloAction>,
+    /// A built-in scenario or a TOML file; its seed is the campaign's.
+    #[arg(long, value_name = "NAME|PATH", required = true)]
+    scenario: Option<String>,
+    /// Runs in the whole campaign (run i flies the dispersion drawn for index i).
+    #[arg(long, required_unless_present = "show_run")]
+    runs: Option<u64>,
+    /// Parallel runs (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Run only part K of M (1-based; runs i with i mod M = K - 1), to merge later.
+    #[arg(long, value_name = "K/M")]
+    shard: Option<Shard>,
+    /// Output directory.
+    #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
+    out: PathBuf,
+    /// Print the scenario file of run I (dispersion applied) instead, to fly it with `dock`.
+    #[arg(long, value_name = "I", conflicts_with_all = ["runs", "jobs", "shard"])]
+    show_run: Option<u64>,
+}
+
+#[derive(Subcommand)]
+enum MonteCarloAction {
+    /// Merge the output directories of a campaign's shards into one.
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true, num_args = 1..)]
+        dirs: Vec<PathBuf>,
+        /// Output directory of the merged campaign.
+        #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
+        out: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -214,7 +259,38 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             print!("{report}");
             Ok(())
         }
+        Command::Montecarlo(args) => monte_carlo(args),
     }
+}
+
+fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
+    if let Some(MonteCarloAction::Merge { dirs, out }) = args.action {
+        let summary = montecarlo::merge(&dirs, &out)?;
+        println!("{}", montecarlo::one_line(&summary));
+        eprintln!("merged {} directories into {}", dirs.len(), out.display());
+        return Ok(());
+    }
+    let name = args.scenario.ok_or("--scenario is required")?;
+    let f = ScenarioFile::load(&name)?;
+    if let Some(i) = args.show_run {
+        print!("{}", f.dispersed(i).to_toml());
+        return Ok(());
+    }
+    let runs = args.runs.ok_or("--runs is required")?;
+    let indices = montecarlo::indices(runs, args.shard);
+    let started = std::time::Instant::now();
+    let lines = montecarlo::run_campaign(&f, &indices, args.jobs)?;
+    let wall_s = started.elapsed().as_secs_f64();
+    let summary =
+        montecarlo::write_campaign(&args.out, &CampaignMeta::new(&f, runs, args.shard), &lines)?;
+    println!("{}", montecarlo::one_line(&summary));
+    eprintln!(
+        "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png}}",
+        indices.len(),
+        args.jobs.unwrap_or_else(rayon::current_num_threads),
+        args.out.display()
+    );
+    Ok(())
 }
 
 fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), AnyError> {

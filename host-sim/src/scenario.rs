@@ -4,15 +4,25 @@
 //! A scenario is TOML. Every key is optional (the defaults are the paper's start in calm air
 //! with the tanker's wake, the full hose and drogue and the LED camera); an unknown key is an
 //! error that names it; a value out of range is an error that names the key and the allowed
-//! range. [`ScenarioFile::build`] turns a validated file into the simulator's [`Scenario`]
-//! and the controller's [`ControllerConfig`].
+//! range. [`ScenarioFile::scenario`] and [`ScenarioFile::controller_config`] turn a validated
+//! file into the simulator's [`Scenario`] and the controller's [`ControllerConfig`].
 //!
-//! Invariant: a built scenario only contains values that passed [`ScenarioFile::validate`].
+//! The `[dispersion]` table is read only by Monte Carlo campaigns (`host-sim montecarlo`):
+//! it gives ranges, and [`ScenarioFile::dispersed`] turns the file and a run index into the
+//! file of that run, with every dispersed value drawn uniformly from its range by a generator
+//! seeded from the file's seed and the index alone (each value from its own stream, so adding
+//! or removing one key leaves the others' draws unchanged).
+//!
+//! Invariants: a built scenario only contains values that passed [`ScenarioFile::validate`];
+//! a dispersed file validates whenever its base file does.
 
 use ibvs_core::{ControllerConfig, OuterLaw};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::sim::{PAPER_START_M, Scenario};
+use crate::synthesis::NOMINAL_XCG;
 use crate::world::turbulence::TurbulencePreset;
 
 /// Which outer loop flies.
@@ -115,6 +125,55 @@ pub struct CameraSection {
     pub drop_probability: f64,
 }
 
+/// `[receiver]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReceiverSection {
+    /// Centre of gravity, fraction of the mean aerodynamic chord (the gains are designed at
+    /// 0.35; the receiver trims at this one).
+    pub xcg: f64,
+}
+
+/// `[dispersion]`: ranges `[min, max]` for a Monte Carlo campaign, each drawn uniformly per
+/// run (integers: every value of the range equally likely). A missing key is not dispersed:
+/// every run flies the file's value. Only `host-sim montecarlo` reads this table.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DispersionSection {
+    /// Each run flies its own seed (turbulence, camera noise and drops), drawn from the
+    /// file's seed and the run index (default true); false: every run flies the file's seed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vary_seed: Option<bool>,
+    /// Start: drogue centre minus probe tip, per tanker axis (forward, right, down), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drogue_minus_probe_m: Option<[[f64; 2]; 3]>,
+    /// RMS gust speed, m/s (overrides the turbulence preset).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub turbulence_sigma_mps: Option<[f64; 2]>,
+    /// Pixel noise per LED centroid, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_noise_px: Option<[f64; 2]>,
+    /// Camera latency, frames (integers, both ends included).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub latency_frames: Option<[u32; 2]>,
+    /// Camera mount position error, per body axis, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mount_error_m: Option<[[f64; 2]; 3]>,
+    /// Camera boresight pitch error, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mount_pitch_error_deg: Option<[f64; 2]>,
+    /// Receiver centre of gravity, fraction of the mean chord.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub xcg: Option<[f64; 2]>,
+}
+
+impl DispersionSection {
+    /// True when nothing is dispersed and the seed is the default (per run).
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
 /// A scenario file. See the module doc and `docs/scenarios.md`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -141,6 +200,11 @@ pub struct ScenarioFile {
     pub drogue: DrogueSection,
     /// Camera.
     pub camera: CameraSection,
+    /// Receiver.
+    pub receiver: ReceiverSection,
+    /// Monte Carlo ranges (campaigns only).
+    #[serde(skip_serializing_if = "DispersionSection::is_empty")]
+    pub dispersion: DispersionSection,
 }
 
 /// Table 1 of the paper: k1..k5.
@@ -183,6 +247,8 @@ impl Default for ScenarioFile {
                 rate_hz: 50.0,
                 drop_probability: 0.0,
             },
+            receiver: ReceiverSection { xcg: NOMINAL_XCG },
+            dispersion: DispersionSection::default(),
         }
     }
 }
@@ -212,6 +278,11 @@ impl Default for CameraSection {
         ScenarioFile::default().camera
     }
 }
+impl Default for ReceiverSection {
+    fn default() -> Self {
+        ScenarioFile::default().receiver
+    }
+}
 
 /// Why a scenario was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -233,6 +304,16 @@ pub enum ScenarioError {
         value: String,
         /// The allowed range.
         allowed: &'static str,
+    },
+    /// A `[min, max]` range whose minimum exceeds its maximum.
+    #[error("{key} = [{min}, {max}]: the minimum exceeds the maximum")]
+    EmptyRange {
+        /// Dotted key.
+        key: &'static str,
+        /// Minimum given.
+        min: String,
+        /// Maximum given.
+        max: String,
     },
     /// Neither a preset name nor a readable file.
     #[error("no preset or file named {0:?} (presets: {presets})", presets = PRESETS.iter().map(|p| p.0).collect::<Vec<_>>().join(", "))]
@@ -266,6 +347,51 @@ fn range(
     }
 }
 
+/// Checks a dispersion range `[min, max]`: both ends inside `lo..=hi` (as the base key) and
+/// `min <= max`.
+fn range_pair(
+    key: &'static str,
+    r: [f64; 2],
+    lo: f64,
+    hi: f64,
+    allowed: &'static str,
+) -> Result<(), ScenarioError> {
+    range(key, r[0], lo, hi, allowed)?;
+    range(key, r[1], lo, hi, allowed)?;
+    if r[0] > r[1] {
+        return Err(ScenarioError::EmptyRange {
+            key,
+            min: r[0].to_string(),
+            max: r[1].to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// Allowed receiver cg range, fraction of the mean chord (the F-16 trims at the refuelling
+/// condition over all of it; 0.35 is the design cg).
+pub const XCG_RANGE: (f64, f64) = (0.25, 0.45);
+
+/// The dispersion of the paper presets with turbulence (`paper-level1`, `paper-level2`,
+/// `paper-bow-wave`), without the turbulence intensity, which is +/-20 % around each preset's
+/// (see `docs/scenarios.md`, "Dispersion").
+macro_rules! paper_dispersion {
+    ($sigma:literal) => {
+        concat!(
+            "[dispersion]\n",
+            "drogue_minus_probe_m = [[5.5, 6.5], [1.5, 2.5], [-2.5, -1.5]]\n",
+            "turbulence_sigma_mps = ",
+            $sigma,
+            "\n",
+            "pixel_noise_px = [0.25, 1.0]\n",
+            "latency_frames = [1, 2]\n",
+            "mount_error_m = [[-0.05, 0.05], [-0.05, 0.05], [-0.05, 0.05]]\n",
+            "mount_pitch_error_deg = [-0.5, 0.5]\n",
+            "xcg = [0.30, 0.40]\n",
+        )
+    };
+}
+
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
 pub const PRESETS: [(&str, &str, &str); 6] = [
     (
@@ -276,17 +402,26 @@ pub const PRESETS: [(&str, &str, &str); 6] = [
     (
         "paper-level1",
         "paper start, level I turbulence (0.5 m/s), Table 1 gains",
-        "[turbulence]\npreset = \"level1\"\n",
+        concat!(
+            "[turbulence]\npreset = \"level1\"\n",
+            paper_dispersion!("[0.4, 0.6]")
+        ),
     ),
     (
         "paper-level2",
         "paper start, level II turbulence (0.7 m/s), Table 1 gains",
-        "[turbulence]\npreset = \"level2\"\n",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n",
+            paper_dispersion!("[0.56, 0.84]")
+        ),
     ),
     (
         "paper-bow-wave",
         "paper start, level I turbulence and the bow wave, Table 2 gains",
-        "[gains]\nk = [3.0, 3.0, 0.5, 5.0, 2.0]\n[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
+        concat!(
+            "[gains]\nk = [3.0, 3.0, 0.5, 5.0, 2.0]\n[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
+            paper_dispersion!("[0.4, 0.6]")
+        ),
     ),
     (
         "paper-mount-error-ibvs",
@@ -423,7 +558,129 @@ impl ScenarioFile {
             0.0,
             0.9,
             "0..=0.9",
-        )
+        )?;
+        range(
+            "receiver.xcg",
+            self.receiver.xcg,
+            XCG_RANGE.0,
+            XCG_RANGE.1,
+            "0.25..=0.45",
+        )?;
+        self.validate_dispersion()
+    }
+
+    /// Checks the `[dispersion]` ranges: each end as the base key, minimum at most maximum.
+    fn validate_dispersion(&self) -> Result<(), ScenarioError> {
+        let d = &self.dispersion;
+        if let Some(r) = d.drogue_minus_probe_m {
+            range_pair(
+                "dispersion.drogue_minus_probe_m[0] (forward)",
+                r[0],
+                1.5,
+                30.0,
+                "1.5..=30 (ahead of the probe, outside the blind range)",
+            )?;
+            range_pair(
+                "dispersion.drogue_minus_probe_m[1] (right)",
+                r[1],
+                -30.0,
+                30.0,
+                "-30..=30",
+            )?;
+            range_pair(
+                "dispersion.drogue_minus_probe_m[2] (down)",
+                r[2],
+                -30.0,
+                30.0,
+                "-30..=30",
+            )?;
+        }
+        if let Some(r) = d.turbulence_sigma_mps {
+            range_pair("dispersion.turbulence_sigma_mps", r, 0.0, 10.0, "0..=10")?;
+        }
+        if let Some(r) = d.pixel_noise_px {
+            range_pair("dispersion.pixel_noise_px", r, 0.0, 20.0, "0..=20")?;
+        }
+        if let Some(r) = d.latency_frames {
+            range_pair(
+                "dispersion.latency_frames",
+                r.map(f64::from),
+                0.0,
+                10.0,
+                "0..=10",
+            )?;
+        }
+        if let Some(r) = d.mount_error_m {
+            for (r, key) in r.into_iter().zip([
+                "dispersion.mount_error_m[0]",
+                "dispersion.mount_error_m[1]",
+                "dispersion.mount_error_m[2]",
+            ]) {
+                range_pair(key, r, -3.0, 3.0, "-3..=3")?;
+            }
+        }
+        if let Some(r) = d.mount_pitch_error_deg {
+            range_pair(
+                "dispersion.mount_pitch_error_deg",
+                r,
+                -10.0,
+                10.0,
+                "-10..=10",
+            )?;
+        }
+        if let Some(r) = d.xcg {
+            range_pair("dispersion.xcg", r, XCG_RANGE.0, XCG_RANGE.1, "0.25..=0.45")?;
+        }
+        Ok(())
+    }
+
+    /// The file of run `index` of a Monte Carlo campaign over this file: every key of
+    /// `[dispersion]` replaced by a uniform draw from its range, the seed per run unless
+    /// `vary_seed = false`, the name suffixed with the index, and no `[dispersion]` table.
+    /// A function of this file and `index` only.
+    pub fn dispersed(&self, index: u64) -> ScenarioFile {
+        let d = &self.dispersion;
+        let run = splitmix64(splitmix64(self.seed ^ CAMPAIGN_SALT) ^ index);
+        let stream = |salt: u64| ChaCha8Rng::seed_from_u64(splitmix64(run ^ salt));
+        let uniform = |salt: u64, [lo, hi]: [f64; 2]| {
+            if lo < hi {
+                lo + (hi - lo) * stream(salt).random::<f64>()
+            } else {
+                lo
+            }
+        };
+        let mut f = self.clone();
+        f.name = format!("{}-run{index}", self.name);
+        f.dispersion = DispersionSection::default();
+        if d.vary_seed.unwrap_or(true) {
+            f.seed = stream(SALT_SEED).random::<u64>();
+        }
+        if let Some(r) = d.drogue_minus_probe_m {
+            for (j, r) in r.into_iter().enumerate() {
+                f.initial.drogue_minus_probe_m[j] = uniform(SALT_START + j as u64, r);
+            }
+        }
+        if let Some(r) = d.turbulence_sigma_mps {
+            f.turbulence.sigma_mps = Some(uniform(SALT_SIGMA, r));
+        }
+        if let Some(r) = d.pixel_noise_px {
+            f.camera.pixel_noise_px = uniform(SALT_NOISE, r);
+        }
+        if let Some([lo, hi]) = d.latency_frames {
+            f.camera.latency_frames = stream(SALT_LATENCY).random_range(lo..=hi);
+        }
+        if let Some(r) = d.mount_error_m {
+            for (j, r) in r.into_iter().enumerate() {
+                f.camera.mount_error_m[j] = uniform(SALT_MOUNT + j as u64, r);
+            }
+        }
+        if let Some(r) = d.mount_pitch_error_deg {
+            f.camera.mount_pitch_error_deg = uniform(SALT_PITCH, r);
+        }
+        if let Some(r) = d.xcg {
+            f.receiver.xcg = uniform(SALT_XCG, r);
+        }
+        f
     }
 
     /// RMS gust speed of the run, m/s.
@@ -463,6 +720,25 @@ impl ScenarioFile {
     pub fn scenario(&self) -> Scenario {
         Scenario::from_file(self)
     }
+}
+
+/// Salts of the dispersion streams: one per dispersed value.
+const CAMPAIGN_SALT: u64 = 0x6d6f_6e74_6563_6172; // "montecar"
+const SALT_SEED: u64 = 1;
+const SALT_START: u64 = 0x10; // + axis
+const SALT_SIGMA: u64 = 0x20;
+const SALT_NOISE: u64 = 0x30;
+const SALT_LATENCY: u64 = 0x40;
+const SALT_MOUNT: u64 = 0x50; // + axis
+const SALT_PITCH: u64 = 0x60;
+const SALT_XCG: u64 = 0x70;
+
+/// SplitMix64's output function: a bijective mix of 64 bits.
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }
 
 #[cfg(test)]
@@ -550,6 +826,150 @@ mod tests {
     fn a_missing_preset_or_file_lists_the_presets() {
         let e = ScenarioFile::load("paper-level9").unwrap_err().to_string();
         assert!(e.contains("paper-level1"), "{e}");
+    }
+
+    #[test]
+    fn the_turbulence_presets_carry_the_stated_dispersion() {
+        for (name, sigma) in [
+            ("paper-level1", [0.4, 0.6]),
+            ("paper-level2", [0.56, 0.84]),
+            ("paper-bow-wave", [0.4, 0.6]),
+        ] {
+            let d = ScenarioFile::load(name).unwrap().dispersion;
+            assert_eq!(d.turbulence_sigma_mps, Some(sigma), "{name}");
+            assert_eq!(
+                d.drogue_minus_probe_m,
+                Some([[5.5, 6.5], [1.5, 2.5], [-2.5, -1.5]])
+            );
+            assert_eq!(d.pixel_noise_px, Some([0.25, 1.0]));
+            assert_eq!(d.latency_frames, Some([1, 2]));
+            assert_eq!(d.mount_error_m, Some([[-0.05, 0.05]; 3]));
+            assert_eq!(d.mount_pitch_error_deg, Some([-0.5, 0.5]));
+            assert_eq!(d.xcg, Some([0.30, 0.40]));
+            assert_eq!(d.vary_seed, None);
+        }
+        for name in ["calm", "paper-mount-error-ibvs", "paper-mount-error-pbvs"] {
+            assert!(ScenarioFile::load(name).unwrap().dispersion.is_empty());
+        }
+    }
+
+    #[test]
+    fn dispersed_runs_depend_on_the_seed_and_the_index_only_and_stay_in_range() {
+        let base = ScenarioFile::load("paper-level2").unwrap();
+        let d = base.dispersion.clone();
+        let within = |v: f64, [lo, hi]: [f64; 2]| lo <= v && v <= hi;
+        let mut seeds = std::collections::BTreeSet::new();
+        let mut latencies = std::collections::BTreeSet::new();
+        for i in 0..200 {
+            let f = base.dispersed(i);
+            assert_eq!(f, base.dispersed(i), "a function of the index");
+            f.validate().unwrap();
+            assert!(f.dispersion.is_empty());
+            assert_eq!(f.name, format!("paper-level2-run{i}"));
+            seeds.insert(f.seed);
+            latencies.insert(f.camera.latency_frames);
+            let r = d.drogue_minus_probe_m.unwrap();
+            for (j, r) in r.into_iter().enumerate() {
+                assert!(within(f.initial.drogue_minus_probe_m[j], r));
+                assert!(within(f.camera.mount_error_m[j], [-0.05, 0.05]));
+            }
+            assert!(within(f.sigma_mps(), [0.56, 0.84]));
+            assert!(within(f.camera.pixel_noise_px, [0.25, 1.0]));
+            assert!(within(f.camera.mount_pitch_error_deg, [-0.5, 0.5]));
+            assert!(within(f.receiver.xcg, [0.30, 0.40]));
+            // What is not dispersed is the base file's.
+            assert_eq!(f.gains, base.gains);
+            assert_eq!(f.camera.rate_hz, base.camera.rate_hz);
+        }
+        assert_eq!(seeds.len(), 200, "a seed per run");
+        assert_eq!(latencies, [1, 2].into(), "both ends of an integer range");
+        let mut other = base.clone();
+        other.seed = 2;
+        assert_ne!(other.dispersed(0).seed, base.dispersed(0).seed);
+        assert_ne!(
+            other.dispersed(0).initial,
+            base.dispersed(0).initial,
+            "the campaign seed changes every draw"
+        );
+    }
+
+    #[test]
+    fn each_dispersed_value_has_its_own_stream() {
+        let base = ScenarioFile::load("paper-level2").unwrap();
+        let mut fewer = base.clone();
+        fewer.dispersion.pixel_noise_px = None;
+        fewer.dispersion.drogue_minus_probe_m = None;
+        fewer.dispersion.vary_seed = Some(false);
+        for i in [0, 7, 1000] {
+            let (a, b) = (base.dispersed(i), fewer.dispersed(i));
+            assert_eq!(a.sigma_mps(), b.sigma_mps());
+            assert_eq!(a.receiver, b.receiver);
+            assert_eq!(a.camera.mount_error_m, b.camera.mount_error_m);
+            assert_eq!(b.camera.pixel_noise_px, base.camera.pixel_noise_px);
+            assert_eq!(b.initial, base.initial);
+            assert_eq!(b.seed, base.seed, "vary_seed = false");
+        }
+    }
+
+    #[test]
+    fn a_bad_dispersion_names_the_key() {
+        for (text, key, what) in [
+            (
+                "[dispersion]\nturbulence_sigma_mps = [0.9, 0.5]\n",
+                "dispersion.turbulence_sigma_mps",
+                "minimum exceeds",
+            ),
+            (
+                "[dispersion]\npixel_noise_px = [-1.0, 0.5]\n",
+                "dispersion.pixel_noise_px",
+                "0..=20",
+            ),
+            (
+                "[dispersion]\ndrogue_minus_probe_m = [[1.0, 6.0], [0.0, 0.0], [0.0, 0.0]]\n",
+                "dispersion.drogue_minus_probe_m[0] (forward)",
+                "1.5..=30",
+            ),
+            (
+                "[dispersion]\nlatency_frames = [2, 11]\n",
+                "dispersion.latency_frames",
+                "0..=10",
+            ),
+            (
+                "[dispersion]\nmount_error_m = [[0.0, 0.0], [0.0, 0.0], [0.1, -0.1]]\n",
+                "dispersion.mount_error_m[2]",
+                "minimum exceeds",
+            ),
+            (
+                "[dispersion]\nxcg = [0.2, 0.3]\n",
+                "dispersion.xcg",
+                "0.25..=0.45",
+            ),
+            (
+                "[dispersion]\nmount_pitch_error_deg = [-11.0, 0.0]\n",
+                "dispersion.mount_pitch_error_deg",
+                "-10..=10",
+            ),
+            (
+                "[dispersion]\nxcg_range = [0.3, 0.4]\n",
+                "xcg_range",
+                "unknown field",
+            ),
+            ("[receiver]\nxcg = 0.6\n", "receiver.xcg", "0.25..=0.45"),
+        ] {
+            let e = ScenarioFile::parse(text, "bad").unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains(what), "{text}: {e}");
+        }
+        let ok = ScenarioFile::parse(
+            "[dispersion]\nvary_seed = false\nxcg = [0.35, 0.35]\n[receiver]\nxcg = 0.3\n",
+            "ok",
+        )
+        .unwrap();
+        assert_eq!(
+            ok.dispersed(3).receiver.xcg,
+            0.35,
+            "an empty-width range is its value"
+        );
+        assert_eq!(ok.scenario().xcg, 0.3);
     }
 
     #[test]

@@ -7,9 +7,10 @@
 //! after every substep.
 //!
 //! The flight computer is a trait, so the same run drives the core in-process or the firmware
-//! inside an emulated MCU.
+//! inside an emulated MCU. [`run_with_faults`] injects scheduled faults between the world and
+//! the flight computer (camera, navigation, actuators; [`crate::world::faults`]).
 //!
-//! Invariant: a run is a pure function of its [`Scenario`] and the flight computer's
+//! Invariant: a run is a pure function of its [`Scenario`], its faults and the flight computer's
 //! behaviour; it records one [`Sample`] per control step.
 
 use ibvs_core::controller::{ControllerInput, ControllerOutput};
@@ -26,6 +27,7 @@ use crate::synthesis::{
 };
 use crate::world::camera::{CameraParams, PinholeCamera};
 use crate::world::drogue::{CAPTURE_RADIUS_M, FixedDrogue};
+use crate::world::faults::{FaultInjector, SimFault};
 use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
 use crate::world::led_camera::{CameraError, LedCamera, LedCameraParams};
 use crate::world::nav::PerfectNav;
@@ -151,6 +153,7 @@ impl Scenario {
             camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
             wake: f.tanker_wake.enabled.then(WakeParams::default),
             bow_wave: f.bow_wave.enabled,
+            xcg: f.receiver.xcg,
             ..Self::ideal()
         }
     }
@@ -311,6 +314,17 @@ fn initial_state(s: &Scenario, trim: &Trim, drogue_tanker_m: &Vector3<f64>) -> R
 
 /// Runs `scenario` with `fc` flying.
 pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
+    run_with_faults(s, fc, &[])
+}
+
+/// Runs `scenario` with `fc` flying and `faults` injected between the world and the flight
+/// computer ([`crate::world::faults`]; `docs/faults.md`). With no faults it is [`run`].
+pub fn run_with_faults(
+    s: &Scenario,
+    fc: &mut dyn FlightComputer,
+    faults: &[SimFault],
+) -> Result<Run, SimError> {
+    let mut injector = FaultInjector::new(faults).map_err(SimError::Scenario)?;
     if !(s.duration_s.is_finite()
         && s.duration_s > 0.0
         && s.plant_substeps > 0
@@ -322,14 +336,22 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
     }
     let model = F16::new(s.xcg)?;
     let trim = model.trim_straight_level(s.tanker.speed_mps, s.tanker.altitude_m)?;
+    // The camera is fixed to the airframe, level at the trim the gains were designed for
+    // (nominal cg), and the navigation reports perturbations from that trim: at another cg
+    // the receiver trims at a different attitude, which both then see.
+    let design_trim = if s.xcg == NOMINAL_XCG {
+        trim
+    } else {
+        F16::new(NOMINAL_XCG)?.trim_straight_level(s.tanker.speed_mps, s.tanker.altitude_m)?
+    };
     let (ts, dt) = (
         CONTROL_PERIOD_S,
         CONTROL_PERIOD_S / f64::from(s.plant_substeps),
     );
-    let mut world = build_world(s, &trim, dt)?;
+    let mut world = build_world(s, &design_trim, dt)?;
     let mut x = initial_state(s, &trim, &world.drogue_centre_tanker_m());
     let nav = PerfectNav::new(
-        &trim,
+        &design_trim,
         point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0),
     );
     let steps = (s.duration_s / ts).ceil() as usize;
@@ -349,13 +371,21 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
 
     for k in 0..steps {
         let t = k as f64 * ts;
-        let measurement = world.capture(&x, t);
+        let (tip_now, drogue_now) = (tip(&x, t), world.drogue_centre_tanker_m());
+        let measurement = if injector.is_empty() {
+            world.capture(&x, t)
+        } else {
+            injector.begin_step(t, drogue_now.x - tip_now.x);
+            world.set_led_occlusion(injector.occlusion_mask());
+            let raw = world.capture(&x, t);
+            injector.measurement(t, raw)
+        };
         let engaged_before = samples
             .last()
             .is_some_and(|p: &Sample| p.output.mode != Mode::Standby);
         let input = ControllerInput {
             measurement,
-            nav: nav.sample(&s.tanker, &x, t),
+            nav: injector.nav(nav.sample(&s.tanker, &x, t)),
             probe_contact: contact.is_some_and(|c| c.docked),
             request: if engaged_before || event.is_some() {
                 ModeRequest::None
@@ -364,7 +394,6 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
             },
         };
         let output = fc.step(&input);
-        let (tip_now, drogue_now) = (tip(&x, t), world.drogue_centre_tanker_m());
         samples.push(Sample {
             time_s: t,
             measurement,
@@ -389,12 +418,16 @@ pub fn run(s: &Scenario, fc: &mut dyn FlightComputer) -> Result<Run, SimError> {
         {
             break;
         }
-        let cmd = ReceiverCommand {
-            elevator_rad: f64::from(output.command.elevator_rad),
-            throttle: f64::from(output.command.throttle),
-            aileron_rad: f64::from(output.command.aileron_rad),
-            rudder_rad: f64::from(output.command.rudder_rad),
-        };
+        let cmd = injector.actuate(
+            ReceiverCommand {
+                elevator_rad: f64::from(output.command.elevator_rad),
+                throttle: f64::from(output.command.throttle),
+                aileron_rad: f64::from(output.command.aileron_rad),
+                rudder_rad: f64::from(output.command.rudder_rad),
+            },
+            &x,
+            ts,
+        );
         for i in 0..s.plant_substeps {
             let ti = t + f64::from(i) * dt;
             let wind = world.receiver_wind(&x, ti);

@@ -557,6 +557,8 @@ pub struct LedCamera {
     in_flight: VecDeque<Frame>,
     /// The newest delivered frame.
     latest: Option<Frame>,
+    /// LEDs hidden from the camera (bit `k`: LED `k`; fault injection).
+    occluded: u32,
 }
 
 impl LedCamera {
@@ -577,12 +579,20 @@ impl LedCamera {
             previous: None,
             in_flight: VecDeque::with_capacity(capacity),
             latest: None,
+            occluded: 0,
         })
     }
 
     /// The parameters.
     pub fn params(&self) -> &LedCameraParams {
         &self.params
+    }
+
+    /// Hides the LEDs whose bits are set in `mask` (bit `k`: LED `k`) from the frames
+    /// captured from now on (fault injection: something between the camera and the ring).
+    /// The random draws per frame do not change, so the rest of the run's noise is the same.
+    pub fn set_occlusion(&mut self, mask: u32) {
+        self.occluded = mask;
     }
 
     /// Advances the camera to time `t_s` (s, the caller's clock, non-decreasing): captures
@@ -678,6 +688,9 @@ impl LedCamera {
         let mut visible = 0;
         if let Some((e1, e2)) = ring_basis(&scene.drogue_axis_tanker) {
             for (k, n) in noise.iter().enumerate().take(p.led_count) {
+                if self.occluded & (1u32 << k) != 0 {
+                    continue;
+                }
                 let angle = p.ring_phase_rad + TAU * k as f64 / p.led_count as f64;
                 let (sin, cos) = angle.sin_cos();
                 let led_t = scene.drogue_centre_tanker_m + (e1 * cos + e2 * sin) * p.ring_radius_m;

@@ -13,6 +13,7 @@
 pub mod bow_wave;
 pub mod camera;
 pub mod drogue;
+pub mod faults;
 pub mod hose;
 pub mod led_camera;
 pub mod nav;
@@ -210,6 +211,14 @@ impl World {
         CameraPose {
             position_tanker_m: point_in_tanker_m(&self.tanker, x, &self.mount.position_body_m, t_s),
             tanker_from_camera: ned_from_body(x) * body_from_camera(self.mount.pitch_down_rad),
+        }
+    }
+
+    /// Hides the LEDs whose bits are set in `mask` from the LED camera (fault injection;
+    /// the ideal camera has no LEDs and ignores it).
+    pub fn set_led_occlusion(&mut self, mask: u32) {
+        if let Camera::Led(c) = &mut self.camera {
+            c.set_occlusion(mask);
         }
     }
 

@@ -1,0 +1,1055 @@
+//! Monte Carlo campaigns: many dockings of one scenario with its `[dispersion]` drawn per
+//! run, their statistics and plots; shards of a campaign run anywhere and merge exactly.
+//!
+//! Run `i` of a campaign flies [`ScenarioFile::dispersed`]`(i)`: its seed and dispersed
+//! inputs are a function of the scenario file (its seed included) and `i` alone, so the
+//! runs can be split over machines (`--shard K/M`: the runs `i` with `i mod M = K - 1`) and
+//! the shards merged ([`merge`]) into exactly the output of one machine. Runs are parallel
+//! (rayon); the output is in index order whatever the parallelism.
+//!
+//! Output directory:
+//! - `runs.jsonl`: one JSON object per run, in index order: [`RunRecord`] (inputs, outcome,
+//!   miss and closing speed, failure cause, unsafe flag);
+//! - `campaign.json`: [`CampaignMeta`] (the scenario as TOML, the campaign size, the shard);
+//! - `summary.json`: [`CampaignSummary`] (success rate with a 95 % Wilson interval, unsafe
+//!   end states, miss and closing-speed percentiles, failure causes, success against
+//!   turbulence intensity);
+//! - `miss_scatter.png`: where the probe tip crossed the drogue plane, seen from behind,
+//!   with the capture circle; `success_vs_turbulence.png`: success rate (and its interval)
+//!   per turbulence-intensity bin.
+//!
+//! Definitions (also in `docs/scenarios.md`, "Monte Carlo campaigns"):
+//! - *success*: the run docked ([`Outcome::Docked`]: inside the capture radius and the
+//!   closing band at the first crossing of the drogue plane);
+//! - *unsafe end state*: the probe tip crossed the drogue plane before any breakaway outside
+//!   the capture radius, or crossed it (at any time) faster than the closing band's maximum.
+//!   A crossing after a breakaway at a safe speed is counted separately
+//!   (`crossed_after_breakaway`), not as unsafe.
+//!
+//! Invariants: nothing in the files depends on the machine, the number of jobs or the shard
+//! split (wall time is printed, not written); the summary is computed from the JSON lines as
+//! written, so a merge reproduces it bit for bit.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use ibvs_core::Controller;
+use indicatif::{ProgressBar, ProgressStyle};
+use plotters::prelude::*;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::docking::CLOSING_BAND_MPS;
+use crate::output::OutputError;
+use crate::plot::{self, PALETTE};
+use crate::scenario::{DispersionSection, ScenarioError, ScenarioFile};
+use crate::sim::{self, Outcome, Run};
+use crate::world::drogue::CAPTURE_RADIUS_M;
+
+/// z of the two-sided 95 % normal interval.
+const Z95: f64 = 1.959_963_984_540_054;
+
+/// Why a campaign could not be run, written or merged.
+#[derive(Debug, thiserror::Error)]
+pub enum McError {
+    /// The scenario.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// File system.
+    #[error("{path}: {source}")]
+    Io {
+        /// Path.
+        path: String,
+        /// Error.
+        source: std::io::Error,
+    },
+    /// JSON encoding or decoding.
+    #[error("{path}: {source}")]
+    Json {
+        /// Path (or what was encoded).
+        path: String,
+        /// Error.
+        source: serde_json::Error,
+    },
+    /// A plot.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The thread pool.
+    #[error("thread pool: {0}")]
+    Pool(String),
+    /// Shards that do not belong together or do not make up the campaign.
+    #[error("merge: {0}")]
+    Merge(String),
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> McError + '_ {
+    move |source| McError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// Part `k` of `m` (1-based) of a campaign: the runs `i` with `i mod m = k - 1`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This part, 1..=m.
+    pub k: u64,
+    /// Number of parts.
+    pub m: u64,
+}
+
+impl FromStr for Shard {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("--shard takes K/M with 1 <= K <= M, got {s:?}");
+        let (k, m) = s.split_once('/').ok_or_else(bad)?;
+        let (k, m): (u64, u64) = (
+            k.trim().parse().map_err(|_| bad())?,
+            m.trim().parse().map_err(|_| bad())?,
+        );
+        if k == 0 || k > m {
+            return Err(bad());
+        }
+        Ok(Self { k, m })
+    }
+}
+
+impl fmt::Display for Shard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.k, self.m)
+    }
+}
+
+/// The run indices of a campaign of `runs` runs in `shard` (all of them without one).
+pub fn indices(runs: u64, shard: Option<Shard>) -> Vec<u64> {
+    match shard {
+        None => (0..runs).collect(),
+        Some(s) => (s.k - 1..runs).step_by(s.m as usize).collect(),
+    }
+}
+
+/// What one run flew (every value a dispersion may change, dispersed or not).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RunInputs {
+    /// Start: drogue centre minus probe tip, tanker axes (forward, right, down), m.
+    pub drogue_minus_probe_m: [f64; 3],
+    /// RMS gust speed, m/s.
+    pub turbulence_sigma_mps: f64,
+    /// Pixel noise per LED centroid, px.
+    pub pixel_noise_px: f64,
+    /// Camera latency, frames.
+    pub latency_frames: u32,
+    /// Camera mount position error (true minus believed), body axes, m.
+    pub mount_error_m: [f64; 3],
+    /// Camera boresight pitch error, degrees.
+    pub mount_pitch_error_deg: f64,
+    /// Receiver cg, fraction of the mean chord.
+    pub xcg: f64,
+}
+
+impl RunInputs {
+    /// The inputs of a run's scenario file.
+    pub fn of(f: &ScenarioFile) -> Self {
+        Self {
+            drogue_minus_probe_m: f.initial.drogue_minus_probe_m,
+            turbulence_sigma_mps: f.sigma_mps(),
+            pixel_noise_px: f.camera.pixel_noise_px,
+            latency_frames: f.camera.latency_frames,
+            mount_error_m: f.camera.mount_error_m,
+            mount_pitch_error_deg: f.camera.mount_pitch_error_deg,
+            xcg: f.receiver.xcg,
+        }
+    }
+}
+
+/// How a campaign run ended ([`Outcome`], or an error before it could start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunOutcome {
+    /// Docked.
+    Docked,
+    /// Reached the drogue plane outside the capture radius or the closing band.
+    Missed,
+    /// Neither contact nor breakaway in the time budget.
+    Timeout,
+    /// Broke away before reaching the plane.
+    Aborted,
+    /// The run could not start (the message is the failure cause).
+    Error,
+}
+
+impl From<Outcome> for RunOutcome {
+    fn from(o: Outcome) -> Self {
+        match o {
+            Outcome::Docked => Self::Docked,
+            Outcome::Missed => Self::Missed,
+            Outcome::Timeout => Self::Timeout,
+            Outcome::Aborted => Self::Aborted,
+        }
+    }
+}
+
+impl RunOutcome {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Docked => "docked",
+            Self::Missed => "missed",
+            Self::Timeout => "timeout",
+            Self::Aborted => "aborted",
+            Self::Error => "error",
+        }
+    }
+}
+
+/// A crossing of the drogue plane.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Crossing {
+    /// Radial offset of the probe tip from the drogue centre, m.
+    pub miss_m: f64,
+    /// Closing speed, m/s.
+    pub closure_mps: f64,
+}
+
+/// One line of `runs.jsonl`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// Run index in the campaign.
+    pub index: u64,
+    /// The run's seed (turbulence, camera).
+    pub seed: u64,
+    /// What it flew.
+    pub inputs: RunInputs,
+    /// How it ended.
+    pub outcome: RunOutcome,
+    /// Outcome is docked.
+    pub docked: bool,
+    /// An unsafe end state (module doc).
+    pub unsafe_end: bool,
+    /// Why it did not dock (`None` when it docked).
+    pub failure: Option<String>,
+    /// Radial miss at the drogue plane when reached before any breakaway, m.
+    pub miss_m: Option<f64>,
+    /// Closing speed then, m/s.
+    pub closure_mps: Option<f64>,
+    /// Where the probe tip crossed the plane relative to the drogue centre, seen from
+    /// behind: `[right, up]`, m (direction interpolated between control steps, length the
+    /// miss).
+    pub plane_offset_m: Option<[f64; 2]>,
+    /// A crossing after a breakaway.
+    pub crossed_after_breakaway: Option<Crossing>,
+    /// Time of the decisive event, s.
+    pub time_s: f64,
+    /// The controller's breakaway reason, if it broke away (before or after the plane).
+    pub breakaway_reason: Option<String>,
+}
+
+/// Where the probe tip crossed the drogue plane, `[right, up]` of the tip relative to the
+/// drogue centre, scaled to the contact's miss.
+fn plane_offset(run: &Run) -> Option<[f64; 2]> {
+    let c = run.contact?;
+    let s = &run.samples;
+    let k = s.iter().rposition(|p| p.time_s <= c.time_s)?;
+    let a = s[k].drogue_from_tip_m;
+    let r = match s.get(k + 1) {
+        Some(n) if a.x > 0.0 && n.drogue_from_tip_m.x <= 0.0 => {
+            let b = n.drogue_from_tip_m;
+            let f = a.x / (a.x - b.x);
+            a + (b - a) * f
+        }
+        _ => a,
+    };
+    let (right, up) = (-r.y, r.z);
+    let norm = right.hypot(up);
+    Some(if norm > 0.0 {
+        [right * c.miss_m / norm, up * c.miss_m / norm]
+    } else {
+        [c.miss_m, 0.0]
+    })
+}
+
+/// True when `run` ended in an unsafe state (module doc): the probe tip crossed the drogue
+/// plane before any breakaway at or outside the capture radius, or crossed it faster than
+/// the closing band.
+pub fn is_unsafe(run: &Run) -> bool {
+    let wide = run.summary.miss_m.is_some_and(|m| m >= CAPTURE_RADIUS_M);
+    let too_fast = run
+        .contact
+        .is_some_and(|c| c.closure_mps > CLOSING_BAND_MPS.1);
+    wide || too_fast
+}
+
+/// The record of a finished run.
+fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
+    let s = &run.summary;
+    let reached = s.miss_m.zip(s.closure_mps);
+    let after = match (reached, run.contact) {
+        (None, Some(c)) => Some(Crossing {
+            miss_m: c.miss_m,
+            closure_mps: c.closure_mps,
+        }),
+        _ => None,
+    };
+    let failure = match s.outcome {
+        Outcome::Docked => None,
+        Outcome::Aborted => Some(format!(
+            "breakaway: {}",
+            s.breakaway_reason.as_deref().unwrap_or("unknown")
+        )),
+        Outcome::Timeout => Some("timeout".into()),
+        Outcome::Missed => Some(
+            match reached {
+                Some((m, _)) if m >= CAPTURE_RADIUS_M => "missed: outside the capture radius",
+                Some((_, v)) if v > CLOSING_BAND_MPS.1 => "missed: closing faster than the band",
+                _ => "missed: closing slower than the band",
+            }
+            .into(),
+        ),
+    };
+    RunRecord {
+        index,
+        seed: f.seed,
+        inputs: RunInputs::of(f),
+        outcome: s.outcome.into(),
+        docked: s.docked,
+        unsafe_end: is_unsafe(run),
+        failure,
+        miss_m: s.miss_m,
+        closure_mps: s.closure_mps,
+        plane_offset_m: if reached.is_some() {
+            plane_offset(run)
+        } else {
+            None
+        },
+        crossed_after_breakaway: after,
+        time_s: s.time_s,
+        breakaway_reason: s.breakaway_reason.clone(),
+    }
+}
+
+/// Flies run `index` of a campaign over `base`.
+pub fn run_one(base: &ScenarioFile, index: u64) -> RunRecord {
+    let f = base.dispersed(index);
+    let result = Controller::new(f.controller_config())
+        .map_err(|e| e.to_string())
+        .and_then(|mut c| sim::run(&f.scenario(), &mut c).map_err(|e| e.to_string()));
+    match result {
+        Ok(run) => classify(index, &f, &run),
+        Err(e) => RunRecord {
+            index,
+            seed: f.seed,
+            inputs: RunInputs::of(&f),
+            outcome: RunOutcome::Error,
+            docked: false,
+            unsafe_end: false,
+            failure: Some(format!("error: {e}")),
+            miss_m: None,
+            closure_mps: None,
+            plane_offset_m: None,
+            crossed_after_breakaway: None,
+            time_s: 0.0,
+            breakaway_reason: None,
+        },
+    }
+}
+
+/// `campaign.json`: what the runs are runs of.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CampaignMeta {
+    /// Scenario name.
+    pub scenario: String,
+    /// The scenario file, every key written out (its `[dispersion]` included).
+    pub scenario_toml: String,
+    /// Runs in the whole campaign.
+    pub runs: u64,
+    /// The shard these runs are (`"K/M"`), none for a whole or merged campaign.
+    pub shard: Option<String>,
+    /// The simulator's version (shards of different versions are not merged).
+    pub host_sim_version: String,
+}
+
+impl CampaignMeta {
+    /// The meta of a campaign of `runs` runs of `f` (`shard` of it).
+    pub fn new(f: &ScenarioFile, runs: u64, shard: Option<Shard>) -> Self {
+        Self {
+            scenario: f.name.clone(),
+            scenario_toml: f.to_toml(),
+            runs,
+            shard: shard.map(|s| s.to_string()),
+            host_sim_version: env!("CARGO_PKG_VERSION").into(),
+        }
+    }
+}
+
+/// Runs `indices` of a campaign over `base` on `jobs` threads (all cores by default), with a
+/// progress bar on stderr when it is a terminal; returns the JSON lines in index order.
+pub fn run_campaign(
+    base: &ScenarioFile,
+    indices: &[u64],
+    jobs: Option<usize>,
+) -> Result<Vec<String>, McError> {
+    base.validate()?;
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(indices.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template(
+            "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} runs, eta {eta}",
+        ) {
+            b.set_style(style);
+        }
+        b.set_prefix(base.name.clone());
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let work = || {
+        indices
+            .par_iter()
+            .map(|&i| {
+                let line =
+                    serde_json::to_string(&run_one(base, i)).map_err(|source| McError::Json {
+                        path: format!("run {i}"),
+                        source,
+                    });
+                bar.inc(1);
+                line
+            })
+            .collect::<Result<Vec<String>, McError>>()
+    };
+    let lines = match jobs {
+        None => work(),
+        Some(j) => rayon::ThreadPoolBuilder::new()
+            .num_threads(j.max(1))
+            .build()
+            .map_err(|e| McError::Pool(e.to_string()))?
+            .install(work),
+    };
+    bar.finish_and_clear();
+    lines
+}
+
+/// A 95 % confidence interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Interval {
+    /// Lower end.
+    pub lower: f64,
+    /// Upper end.
+    pub upper: f64,
+}
+
+/// The Wilson score interval (95 %) of a proportion of `k` in `n` (`[0, 1]` for `n = 0`).
+pub fn wilson(k: u64, n: u64) -> Interval {
+    if n == 0 {
+        return Interval {
+            lower: 0.0,
+            upper: 1.0,
+        };
+    }
+    let (k, n) = (k as f64, n as f64);
+    let p = k / n;
+    let z2 = Z95 * Z95;
+    let denom = 1.0 + z2 / n;
+    let centre = (p + z2 / (2.0 * n)) / denom;
+    let half = Z95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denom;
+    Interval {
+        lower: (centre - half).max(0.0),
+        upper: (centre + half).min(1.0),
+    }
+}
+
+/// The `p`-quantile (0..=1) of sorted values, linear between order statistics (Hyndman and
+/// Fan type 7, as numpy's default); `None` when empty.
+pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
+    let n = sorted.len();
+    if n == 0 {
+        return None;
+    }
+    let h = (n - 1) as f64 * p.clamp(0.0, 1.0);
+    let lo = h.floor() as usize;
+    let hi = (lo + 1).min(n - 1);
+    Some(sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo]))
+}
+
+/// Distribution of one quantity over the runs that have it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Percentiles {
+    /// Runs with a value.
+    pub count: usize,
+    /// Smallest.
+    pub min: f64,
+    /// 5th percentile.
+    pub p5: f64,
+    /// Median.
+    pub p50: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+    /// Mean.
+    pub mean: f64,
+}
+
+impl Percentiles {
+    fn of(values: impl Iterator<Item = f64>) -> Option<Self> {
+        let mut v: Vec<f64> = values.collect();
+        v.sort_by(f64::total_cmp);
+        let q = |p| quantile(&v, p);
+        Some(Self {
+            count: v.len(),
+            min: q(0.0)?,
+            p5: q(0.05)?,
+            p50: q(0.5)?,
+            p95: q(0.95)?,
+            p99: q(0.99)?,
+            max: q(1.0)?,
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+        })
+    }
+}
+
+/// Success rate in one turbulence-intensity bin.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TurbulenceBin {
+    /// Bin, RMS gust speed, m/s (the last bin includes its upper end).
+    pub sigma_lo_mps: f64,
+    /// Upper end of the bin, m/s.
+    pub sigma_hi_mps: f64,
+    /// Runs in the bin.
+    pub runs: u64,
+    /// Of which docked.
+    pub docked: u64,
+    /// Docked fraction (0 for an empty bin).
+    pub success_rate: f64,
+    /// Its 95 % Wilson interval.
+    pub success_ci95: Interval,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CampaignSummary {
+    /// Scenario name.
+    pub scenario: String,
+    /// Runs in the whole campaign.
+    pub campaign_runs: u64,
+    /// The shard summarised (none: the whole campaign).
+    pub shard: Option<String>,
+    /// Runs summarised here.
+    pub runs: u64,
+    /// Of which docked.
+    pub docked: u64,
+    /// Docked fraction.
+    pub success_rate: f64,
+    /// Its 95 % confidence interval (Wilson score).
+    pub success_ci95: Interval,
+    /// Runs ending in an unsafe state (module doc).
+    pub unsafe_end_states: u64,
+    /// Their fraction's 95 % Wilson interval.
+    pub unsafe_ci95: Interval,
+    /// Runs whose probe crossed the drogue plane after a breakaway (at a safe speed or not).
+    pub crossed_after_breakaway: u64,
+    /// Runs per outcome.
+    pub outcomes: BTreeMap<String, u64>,
+    /// Runs per failure cause (breakaway reason, kind of miss, timeout, error).
+    pub failure_causes: BTreeMap<String, u64>,
+    /// Miss at the drogue plane over the runs that reached it before any breakaway, m.
+    pub miss_m: Option<Percentiles>,
+    /// Closing speed then, m/s.
+    pub closure_mps: Option<Percentiles>,
+    /// Success rate per turbulence-intensity bin.
+    pub success_by_turbulence: Vec<TurbulenceBin>,
+    /// The dispersion flown.
+    pub dispersion: DispersionSection,
+    /// Definitions of the numbers above.
+    pub definitions: BTreeMap<String, String>,
+}
+
+/// Bins of the turbulence intensity: equal widths over the dispersed range (one bin per 50
+/// runs, 1..=10), or the one intensity flown.
+fn turbulence_bins(records: &[RunRecord], d: &DispersionSection) -> Vec<TurbulenceBin> {
+    let (lo, hi) = match d.turbulence_sigma_mps {
+        Some([lo, hi]) if lo < hi => (lo, hi),
+        _ => {
+            let s = records
+                .first()
+                .map_or(0.0, |r| r.inputs.turbulence_sigma_mps);
+            (s, s)
+        }
+    };
+    let nb = if hi > lo {
+        (records.len() / 50).clamp(1, 10)
+    } else {
+        1
+    };
+    let edge = |b: usize| lo + (hi - lo) * b as f64 / nb as f64;
+    (0..nb)
+        .map(|b| {
+            let inside: Vec<&RunRecord> = records
+                .iter()
+                .filter(|r| {
+                    let s = r.inputs.turbulence_sigma_mps;
+                    let j = if hi > lo {
+                        (((s - lo) / (hi - lo) * nb as f64).floor().max(0.0) as usize).min(nb - 1)
+                    } else {
+                        0
+                    };
+                    j == b
+                })
+                .collect();
+            let (n, k) = (
+                inside.len() as u64,
+                inside.iter().filter(|r| r.docked).count() as u64,
+            );
+            TurbulenceBin {
+                sigma_lo_mps: edge(b),
+                sigma_hi_mps: edge(b + 1),
+                runs: n,
+                docked: k,
+                success_rate: if n > 0 { k as f64 / n as f64 } else { 0.0 },
+                success_ci95: wilson(k, n),
+            }
+        })
+        .collect()
+}
+
+/// The definitions written into every summary.
+fn definitions() -> BTreeMap<String, String> {
+    [
+        (
+            "success",
+            "the run docked: at the first crossing of the drogue plane the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+        ),
+        (
+            "unsafe_end_states",
+            "the probe tip crossed the drogue plane before any breakaway at or outside the capture radius, or crossed it (at any time) faster than 2.6 m/s",
+        ),
+        (
+            "crossed_after_breakaway",
+            "the probe tip crossed the drogue plane after the controller had broken away (counted as unsafe only when faster than 2.6 m/s)",
+        ),
+        (
+            "ci95",
+            "Wilson score interval, 95 % (z = 1.96)",
+        ),
+        (
+            "percentiles",
+            "linear between order statistics (Hyndman-Fan type 7), over the runs that reached the drogue plane before any breakaway",
+        ),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v.to_string()))
+    .collect()
+}
+
+/// Summarises `records` (in index order) of the campaign `meta`.
+pub fn summarise(
+    meta: &CampaignMeta,
+    dispersion: &DispersionSection,
+    records: &[RunRecord],
+) -> CampaignSummary {
+    let n = records.len() as u64;
+    let count = |f: &dyn Fn(&RunRecord) -> bool| records.iter().filter(|r| f(r)).count() as u64;
+    let docked = count(&|r| r.docked);
+    let unsafe_n = count(&|r| r.unsafe_end);
+    let mut outcomes = BTreeMap::new();
+    let mut causes = BTreeMap::new();
+    for r in records {
+        *outcomes.entry(r.outcome.name().to_string()).or_insert(0) += 1;
+        if let Some(c) = &r.failure {
+            *causes.entry(c.clone()).or_insert(0) += 1;
+        }
+    }
+    CampaignSummary {
+        scenario: meta.scenario.clone(),
+        campaign_runs: meta.runs,
+        shard: meta.shard.clone(),
+        runs: n,
+        docked,
+        success_rate: if n > 0 { docked as f64 / n as f64 } else { 0.0 },
+        success_ci95: wilson(docked, n),
+        unsafe_end_states: unsafe_n,
+        unsafe_ci95: wilson(unsafe_n, n),
+        crossed_after_breakaway: count(&|r| r.crossed_after_breakaway.is_some()),
+        outcomes,
+        failure_causes: causes,
+        miss_m: Percentiles::of(records.iter().filter_map(|r| r.miss_m)),
+        closure_mps: Percentiles::of(records.iter().filter_map(|r| r.closure_mps)),
+        success_by_turbulence: turbulence_bins(records, dispersion),
+        dispersion: dispersion.clone(),
+        definitions: definitions(),
+    }
+}
+
+fn dbg<E: fmt::Debug>(e: E) -> String {
+    format!("{e:?}")
+}
+
+/// A class of runs in a scatter plot: label, colour, points.
+type Group<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
+
+/// Where the probe crossed the drogue plane, from behind, with the capture circle.
+fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), OutputError> {
+    let mut groups: [Group<'_>; 3] = [
+        ("docked", PALETTE[2], Vec::new()),
+        ("unsafe", PALETTE[1], Vec::new()),
+        ("missed, safe (slow)", PALETTE[4], Vec::new()),
+    ];
+    for r in records {
+        if let Some([x, y]) = r.plane_offset_m {
+            let g = if r.docked {
+                0
+            } else if r.unsafe_end {
+                1
+            } else {
+                2
+            };
+            groups[g].2.push((x, y));
+        }
+    }
+    let reach = groups
+        .iter()
+        .flat_map(|g| g.2.iter())
+        .fold(CAPTURE_RADIUS_M * 1.5, |m, p| {
+            m.max(p.0.abs()).max(p.1.abs())
+        })
+        * 1.05;
+    plot::figure(path, (900, 900), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-reach..reach, -reach..reach)
+            .map_err(dbg)?;
+        chart
+            .configure_mesh()
+            .x_desc("probe tip right of the drogue centre, m")
+            .y_desc("probe tip above the drogue centre, m")
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(dbg)?;
+        let circle = (0..=120).map(|i| {
+            let a = f64::from(i) * std::f64::consts::TAU / 120.0;
+            (CAPTURE_RADIUS_M * a.cos(), CAPTURE_RADIUS_M * a.sin())
+        });
+        chart
+            .draw_series(LineSeries::new(circle, BLACK.stroke_width(2)))
+            .map_err(dbg)?
+            .label("capture radius 0.3 m")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+        for (name, color, pts) in &groups {
+            let c = *color;
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                .map_err(dbg)?
+                .label(format!("{name} ({})", pts.len()))
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font(("sans-serif", 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(dbg)
+    })
+}
+
+/// Success rate (dots) and its 95 % interval (bars) per turbulence bin.
+fn success_plot(path: &Path, title: &str, bins: &[TurbulenceBin]) -> Result<(), OutputError> {
+    let used: Vec<&TurbulenceBin> = bins.iter().filter(|b| b.runs > 0).collect();
+    let (x0, x1) = match (bins.first(), bins.last()) {
+        (Some(a), Some(b)) if b.sigma_hi_mps > a.sigma_lo_mps => {
+            let pad = (b.sigma_hi_mps - a.sigma_lo_mps) * 0.05;
+            (a.sigma_lo_mps - pad, b.sigma_hi_mps + pad)
+        }
+        (Some(a), _) => (a.sigma_lo_mps - 0.1, a.sigma_lo_mps + 0.1),
+        _ => (0.0, 1.0),
+    };
+    let y0 = used
+        .iter()
+        .map(|b| b.success_ci95.lower)
+        .fold(1.0_f64, f64::min);
+    let y0 = ((y0 - 0.02) * 20.0).floor() / 20.0;
+    plot::figure(path, (1000, 650), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0.max(0.0)..1.005)
+            .map_err(dbg)?;
+        chart
+            .configure_mesh()
+            .x_desc("turbulence intensity (RMS gust speed), m/s")
+            .y_desc("success rate (95 % Wilson interval)")
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(dbg)?;
+        let mid = |b: &TurbulenceBin| 0.5 * (b.sigma_lo_mps + b.sigma_hi_mps);
+        chart
+            .draw_series(used.iter().map(|b| {
+                PathElement::new(
+                    vec![
+                        (mid(b), b.success_ci95.lower),
+                        (mid(b), b.success_ci95.upper),
+                    ],
+                    PALETTE[0].stroke_width(2),
+                )
+            }))
+            .map_err(dbg)?;
+        chart
+            .draw_series(
+                used.iter()
+                    .map(|b| Circle::new((mid(b), b.success_rate), 5, PALETTE[0].filled())),
+            )
+            .map_err(dbg)?;
+        chart
+            .draw_series(used.iter().map(|b| {
+                Text::new(
+                    format!("{}/{}", b.docked, b.runs),
+                    (mid(b), b.success_ci95.lower),
+                    ("sans-serif", 13),
+                )
+            }))
+            .map_err(dbg)?;
+        Ok(())
+    })
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), McError> {
+    std::fs::write(path, text).map_err(io_err(path))
+}
+
+fn to_json_pretty<T: Serialize>(path: &Path, v: &T) -> Result<String, McError> {
+    serde_json::to_string_pretty(v)
+        .map(|s| s + "\n")
+        .map_err(|source| McError::Json {
+            path: path.display().to_string(),
+            source,
+        })
+}
+
+fn parse_lines(path: &Path, text: &str) -> Result<Vec<RunRecord>, McError> {
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            serde_json::from_str(l).map_err(|source| McError::Json {
+                path: path.display().to_string(),
+                source,
+            })
+        })
+        .collect()
+}
+
+/// Writes a campaign's output into `dir` from its JSON lines (index order) and returns the
+/// summary.
+pub fn write_campaign(
+    dir: &Path,
+    meta: &CampaignMeta,
+    lines: &[String],
+) -> Result<CampaignSummary, McError> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let runs_path = dir.join("runs.jsonl");
+    let mut text = lines.join("\n");
+    if !text.is_empty() {
+        text.push('\n');
+    }
+    write_text(&runs_path, &text)?;
+    // The summary is computed from the lines as written, so a merge of shards reproduces it.
+    let records = parse_lines(&runs_path, &text)?;
+    let scenario = ScenarioFile::parse(&meta.scenario_toml, &meta.scenario)?;
+    let summary = summarise(meta, &scenario.dispersion, &records);
+    let meta_path = dir.join("campaign.json");
+    write_text(&meta_path, &to_json_pretty(&meta_path, meta)?)?;
+    let summary_path = dir.join("summary.json");
+    write_text(&summary_path, &to_json_pretty(&summary_path, &summary)?)?;
+    let part = meta
+        .shard
+        .as_ref()
+        .map_or(String::new(), |s| format!(", shard {s}"));
+    miss_scatter(
+        &dir.join("miss_scatter.png"),
+        &format!(
+            "{}: probe tip at the drogue plane, {} runs{part}",
+            meta.scenario, summary.runs
+        ),
+        &records,
+    )?;
+    success_plot(
+        &dir.join("success_vs_turbulence.png"),
+        &format!(
+            "{}: success rate against turbulence, {} runs{part}",
+            meta.scenario, summary.runs
+        ),
+        &summary.success_by_turbulence,
+    )?;
+    Ok(summary)
+}
+
+/// Reads one campaign output directory: its meta and its JSON lines with their indices.
+fn read_dir(dir: &Path) -> Result<(CampaignMeta, Vec<(u64, String)>), McError> {
+    let meta_path = dir.join("campaign.json");
+    let text = std::fs::read_to_string(&meta_path).map_err(io_err(&meta_path))?;
+    let meta: CampaignMeta = serde_json::from_str(&text).map_err(|source| McError::Json {
+        path: meta_path.display().to_string(),
+        source,
+    })?;
+    let runs_path = dir.join("runs.jsonl");
+    let text = std::fs::read_to_string(&runs_path).map_err(io_err(&runs_path))?;
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let records = parse_lines(&runs_path, &text)?;
+    Ok((
+        meta,
+        records
+            .iter()
+            .zip(lines)
+            .map(|(r, l)| (r.index, l.to_string()))
+            .collect(),
+    ))
+}
+
+/// Merges the outputs of shards (`dirs`) of one campaign into `out`: the same files, bit for
+/// bit, as one machine running the whole campaign. The shards must be of the same scenario,
+/// campaign size and simulator version, and together hold every run exactly once (a run
+/// present twice with the same line is taken once).
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<CampaignSummary, McError> {
+    let mut meta: Option<CampaignMeta> = None;
+    let mut all: BTreeMap<u64, (String, PathBuf)> = BTreeMap::new();
+    for dir in dirs {
+        let (m, lines) = read_dir(dir)?;
+        let whole = CampaignMeta {
+            shard: None,
+            ..m.clone()
+        };
+        match &meta {
+            None => meta = Some(whole),
+            Some(first) if *first != whole => {
+                let what = if first.scenario_toml != whole.scenario_toml {
+                    "scenario"
+                } else if first.runs != whole.runs {
+                    "campaign size"
+                } else {
+                    "simulator version"
+                };
+                return Err(McError::Merge(format!(
+                    "{} is a shard of another campaign ({what} differs from {})",
+                    dir.display(),
+                    dirs[0].display()
+                )));
+            }
+            Some(_) => {}
+        }
+        for (i, line) in lines {
+            if let Some((old, from)) = all.get(&i) {
+                if *old != line {
+                    return Err(McError::Merge(format!(
+                        "run {i} differs between {} and {}",
+                        from.display(),
+                        dir.display()
+                    )));
+                }
+            } else {
+                all.insert(i, (line, dir.clone()));
+            }
+        }
+    }
+    let meta = meta.ok_or_else(|| McError::Merge("no directories given".into()))?;
+    if let Some(&i) = all.keys().find(|&&i| i >= meta.runs) {
+        return Err(McError::Merge(format!(
+            "run {i} is outside the campaign of {} runs",
+            meta.runs
+        )));
+    }
+    let missing: Vec<u64> = (0..meta.runs).filter(|i| !all.contains_key(i)).collect();
+    if !missing.is_empty() {
+        let first: Vec<String> = missing.iter().take(10).map(u64::to_string).collect();
+        return Err(McError::Merge(format!(
+            "{} of {} runs missing (first: {})",
+            missing.len(),
+            meta.runs,
+            first.join(", ")
+        )));
+    }
+    let lines: Vec<String> = all.into_values().map(|(l, _)| l).collect();
+    write_campaign(out, &meta, &lines)
+}
+
+/// One line for the terminal.
+pub fn one_line(s: &CampaignSummary) -> String {
+    let pct = |v: f64| format!("{:.1} %", 100.0 * v);
+    format!(
+        "{}: {} runs{}, docked {} ({}, 95 % CI {}..{}), unsafe end states {}, miss p50/p95/max {}",
+        s.scenario,
+        s.runs,
+        s.shard
+            .as_ref()
+            .map_or(String::new(), |k| format!(" (shard {k})")),
+        s.docked,
+        pct(s.success_rate),
+        pct(s.success_ci95.lower),
+        pct(s.success_ci95.upper),
+        s.unsafe_end_states,
+        s.miss_m.map_or("-".into(), |m| format!(
+            "{:.3}/{:.3}/{:.3} m",
+            m.p50, m.p95, m.max
+        )),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wilson_matches_published_values() {
+        // Newcombe (1998), Table I: 81/263 -> 0.2553..0.3662; 0/10 -> 0..0.2775.
+        let w = wilson(81, 263);
+        assert!(
+            (w.lower - 0.2553).abs() < 5e-5 && (w.upper - 0.3662).abs() < 5e-5,
+            "{w:?}"
+        );
+        let w = wilson(0, 10);
+        assert!(w.lower == 0.0 && (w.upper - 0.2775).abs() < 5e-5, "{w:?}");
+        let w = wilson(1000, 1000);
+        assert!(
+            (w.lower - 0.99617).abs() < 5e-5 && (w.upper - 1.0).abs() < 1e-12,
+            "{w:?}"
+        );
+        assert_eq!(
+            wilson(0, 0),
+            Interval {
+                lower: 0.0,
+                upper: 1.0
+            }
+        );
+    }
+
+    #[test]
+    fn quantiles_interpolate_between_order_statistics() {
+        let v = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(quantile(&v, 0.0), Some(1.0));
+        assert_eq!(quantile(&v, 0.5), Some(2.5));
+        assert_eq!(quantile(&v, 1.0), Some(4.0));
+        assert!((quantile(&v, 0.95).unwrap() - 3.85).abs() < 1e-12);
+        assert_eq!(quantile(&[], 0.5), None);
+    }
+
+    #[test]
+    fn shards_partition_the_campaign() {
+        assert_eq!("2/3".parse::<Shard>().unwrap(), Shard { k: 2, m: 3 });
+        for bad in ["0/3", "4/3", "1", "a/b", "1/0"] {
+            let e = bad.parse::<Shard>().unwrap_err();
+            assert!(e.contains("K/M"), "{e}");
+        }
+        let mut all: Vec<u64> = (1..=3)
+            .flat_map(|k| indices(10, Some(Shard { k, m: 3 })))
+            .collect();
+        all.sort_unstable();
+        assert_eq!(all, indices(10, None));
+        assert_eq!(indices(2, Some(Shard { k: 3, m: 3 })), Vec::<u64>::new());
+    }
+}

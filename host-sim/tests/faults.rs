@@ -1,0 +1,370 @@
+//! Fault injection in the simulator: the `calm` scenario (full world: hose, wake, LED camera)
+//! flown by the core in-process with faults between the world and the flight computer
+//! (`host_sim::world::faults`). Each test is listed in `docs/faults.md` with the response it
+//! checks. The link-level faults (corrupt, lost, late bytes through the firmware's serial link,
+//! link loss) are in `tests/link_faults.rs`.
+//!
+//! Without faults the calm run docks at 9.66 s (miss 0.023 m, 0.80 m/s); the control period
+//! is 20 ms and the camera delivers one new frame per step, so a fault of `n` steps makes `n`
+//! invalid steps, and the hold limit is 25 steps (0.5 s): the 26th consecutive invalid step
+//! breaks away.
+//!
+//! Two tests are `#[ignore]`d: they state what should hold and does not (a frozen image point
+//! with advancing frame numbers, and a slow throttle, both end unsafe); see `docs/faults.md`,
+//! "Known gaps". Run them with `cargo test -p host-sim --test faults -- --ignored`.
+
+use host_sim::montecarlo::is_unsafe;
+use host_sim::scenario::ScenarioFile;
+use host_sim::sim::{Outcome, Run, run, run_with_faults};
+use host_sim::world::faults::{Actuator, FaultKind, SimFault};
+use ibvs_core::controller::StatusFlags;
+use ibvs_core::{Controller, ControllerConfig, Counters, Mode};
+
+/// Mid-approach in the calm run (about 3.5 m from the drogue), s.
+const ONSET_S: f64 = 5.0;
+/// Control period, s.
+const TS: f64 = 0.02;
+/// Consecutive invalid steps bridged by a hold.
+const HOLD_LIMIT: u32 = 25;
+
+struct Flown {
+    run: Run,
+    counters: Counters,
+}
+
+fn fly(faults: &[SimFault]) -> Flown {
+    let f = ScenarioFile::load("calm").expect("preset");
+    let mut c = Controller::new(f.controller_config()).expect("config");
+    let run = run_with_faults(&f.scenario(), &mut c, faults).expect("runs");
+    assert_commands_safe(&run);
+    Flown {
+        counters: *c.counters(),
+        run,
+    }
+}
+
+fn assert_commands_safe(run: &Run) {
+    let lim = ControllerConfig::default().actuators;
+    for s in &run.samples {
+        for (i, c) in s.output.command.as_array().iter().enumerate() {
+            assert!(
+                c.is_finite() && (lim.min[i]..=lim.max[i]).contains(c),
+                "t = {}: command {i} = {c}",
+                s.time_s
+            );
+        }
+    }
+}
+
+/// Time of the first step in breakaway.
+fn breakaway_at(run: &Run) -> Option<f64> {
+    run.samples
+        .iter()
+        .find(|s| s.output.mode == Mode::Breakaway)
+        .map(|s| s.time_s)
+}
+
+fn assert_docked(f: &Flown, what: &str) {
+    let s = &f.run.summary;
+    assert_eq!(s.outcome, Outcome::Docked, "{what}: {s:?}");
+    assert!(!is_unsafe(&f.run), "{what}");
+}
+
+/// Broke away for `reason` without an unsafe end (in particular before reaching the plane
+/// outside the capture radius).
+fn assert_broke_away(f: &Flown, reason: &str, what: &str) {
+    let s = &f.run.summary;
+    assert_eq!(s.outcome, Outcome::Aborted, "{what}: {s:?}");
+    assert_eq!(s.breakaway_reason.as_deref(), Some(reason), "{what}: {s:?}");
+    assert!(!is_unsafe(&f.run), "{what}: {s:?} {:?}", f.run.contact);
+}
+
+fn steps(n: u32) -> f64 {
+    f64::from(n) * TS
+}
+
+#[test]
+fn image_dropouts_up_to_the_hold_limit_are_bridged_and_longer_ones_break_away() {
+    for n in [1, 5, 10, 20, HOLD_LIMIT] {
+        let f = fly(&[SimFault::at_time(
+            FaultKind::ImageDropout,
+            ONSET_S,
+            steps(n),
+        )]);
+        assert_docked(&f, &format!("dropout of {n} steps"));
+        assert_eq!(f.counters.repeated, n, "no new frame: the last one again");
+        assert_eq!(f.counters.measurement_held_steps, n);
+        let held: Vec<f64> = f
+            .run
+            .samples
+            .iter()
+            .filter(|s| s.output.status.contains(StatusFlags::MEASUREMENT_HELD))
+            .map(|s| s.time_s)
+            .collect();
+        assert_eq!(held.len(), n as usize);
+        assert!((held[0] - ONSET_S).abs() < 1e-9, "held from the onset");
+    }
+    for n in [HOLD_LIMIT + 1, 30, 50, 150] {
+        let f = fly(&[SimFault::at_time(
+            FaultKind::ImageDropout,
+            ONSET_S,
+            steps(n),
+        )]);
+        let what = format!("dropout of {n} steps");
+        assert_broke_away(&f, "MeasurementLost", &what);
+        let at = breakaway_at(&f.run).expect("breaks away");
+        assert!(
+            (at - (ONSET_S + steps(HOLD_LIMIT))).abs() < 1e-9,
+            "{what}: on the 26th invalid step, at {at}"
+        );
+        assert_eq!(
+            f.run.contact, None,
+            "{what}: never reaches the drogue plane"
+        );
+    }
+}
+
+#[test]
+fn a_dropout_in_the_blind_phase_changes_no_command() {
+    let base = fly(&[]);
+    let f = fly(&[SimFault::at_range(FaultKind::ImageDropout, 0.6, 3.0)]);
+    assert_docked(&f, "dropout in the blind phase");
+    assert!(f.counters.repeated > 0, "the dropout happened");
+    assert_eq!(f.run.contact, base.run.contact);
+    let commands = |r: &Run| -> Vec<_> { r.samples.iter().map(|s| s.output.command).collect() };
+    assert_eq!(commands(&f.run), commands(&base.run));
+}
+
+#[test]
+fn led_occlusion_down_to_three_leds_keeps_tracking_and_fewer_are_held_then_break_away() {
+    // (Untracked frames are counted in every mode: the calm run has some in the blind phase.)
+    let base = fly(&[]).counters.not_tracked;
+    // Five of eight LEDs hidden (0..4): the circle through the other three is still fitted.
+    let f = fly(&[SimFault::at_range(
+        FaultKind::LedOcclusion { mask: 0b1_1111 },
+        4.0,
+        1.0,
+    )]);
+    assert_docked(&f, "three LEDs for 1 s");
+    assert_eq!(f.counters.not_tracked, base);
+    assert_eq!(f.counters.measurement_held_steps, 0);
+    // Six hidden: not tracked, held for 15 steps, then the ring is back.
+    let f = fly(&[SimFault::at_range(
+        FaultKind::LedOcclusion { mask: 0b11_1111 },
+        4.0,
+        steps(15),
+    )]);
+    assert_docked(&f, "two LEDs for 15 steps");
+    assert_eq!(f.counters.not_tracked, base + 15);
+    assert_eq!(f.counters.measurement_held_steps, 15);
+    // All hidden for 1 s: breakaway on the 26th step.
+    let f = fly(&[SimFault::at_range(
+        FaultKind::LedOcclusion { mask: 0xff },
+        4.0,
+        1.0,
+    )]);
+    assert_broke_away(&f, "MeasurementLost", "all LEDs hidden for 1 s");
+    assert_eq!(f.counters.measurement_held_steps, HOLD_LIMIT);
+    // Three LEDs (the upper ones, 5..7) to the end: they leave the image just before the
+    // blind phase starts, the hold runs out and it breaks away; the probe, still closing while
+    // the breakaway slews the speed back, then crosses the plane inside the capture radius at
+    // about 0.8 m/s (counted in campaigns as `crossed_after_breakaway`, not as unsafe).
+    let f = fly(&[SimFault::at_range(
+        FaultKind::LedOcclusion { mask: 0b1_1111 },
+        4.0,
+        f64::INFINITY,
+    )]);
+    assert_broke_away(&f, "MeasurementLost", "three LEDs to the end");
+    let c = f.run.contact.expect("crosses after the breakaway");
+    assert!(c.miss_m < 0.3 && c.closure_mps < 1.0, "{c:?}");
+}
+
+#[test]
+fn latency_spikes_are_held_then_flown_on_late_frames_and_long_ones_break_away() {
+    // Frames of a 0.1 s window arrive 0.2 s late: 10 steps without a new frame (held), then
+    // the late frames, then the pipeline catches up.
+    let f = fly(&[SimFault::at_time(
+        FaultKind::LatencySpike { extra_s: 0.2 },
+        ONSET_S,
+        0.1,
+    )]);
+    assert_docked(&f, "0.2 s spike");
+    assert_eq!(f.counters.measurement_held_steps, 10);
+    assert!(
+        f.counters.frames_dropped > 0,
+        "it catches up by skipping frames"
+    );
+    let f = fly(&[SimFault::at_time(
+        FaultKind::LatencySpike { extra_s: 0.45 },
+        ONSET_S,
+        0.3,
+    )]);
+    assert_docked(&f, "0.45 s spike");
+    assert_eq!(f.counters.measurement_held_steps, 23);
+    let f = fly(&[SimFault::at_time(
+        FaultKind::LatencySpike { extra_s: 0.6 },
+        ONSET_S,
+        0.1,
+    )]);
+    assert_broke_away(&f, "MeasurementLost", "0.6 s spike");
+    assert_eq!(breakaway_at(&f.run), Some(ONSET_S + steps(HOLD_LIMIT)));
+}
+
+#[test]
+fn a_short_frozen_measurement_is_flown_through() {
+    // The tracker repeats its last image point and depth with fresh frame numbers: nothing in
+    // the frame is invalid, so the controller flies on it. For up to a second it docks.
+    for range_m in [5.0, 3.0, 1.5, 1.0] {
+        let f = fly(&[SimFault::at_range(
+            FaultKind::FrozenMeasurement,
+            range_m,
+            1.0,
+        )]);
+        assert_docked(&f, &format!("frozen for 1 s at {range_m} m"));
+    }
+}
+
+#[test]
+#[ignore = "known gap (docs/faults.md): a frozen image point with advancing frame numbers is \
+            not detected; frozen from 5 m the probe passes the drogue 1.08 m off"]
+fn a_frozen_measurement_does_not_end_in_an_unsafe_state() {
+    for range_m in [5.0, 3.0] {
+        let f = fly(&[SimFault::at_range(
+            FaultKind::FrozenMeasurement,
+            range_m,
+            f64::INFINITY,
+        )]);
+        assert!(
+            !is_unsafe(&f.run),
+            "frozen from {range_m} m: {:?}",
+            f.run.summary
+        );
+    }
+}
+
+#[test]
+fn navigation_nan_is_held_up_to_the_limit_then_breaks_away_open_loop() {
+    let f = fly(&[SimFault::at_time(
+        FaultKind::NavNaN,
+        ONSET_S,
+        steps(HOLD_LIMIT),
+    )]);
+    assert_docked(&f, "NaN navigation for 25 steps");
+    assert_eq!(f.counters.nav_non_finite, HOLD_LIMIT);
+    assert_eq!(f.counters.nav_held_steps, HOLD_LIMIT);
+    for n in [HOLD_LIMIT + 1, 100] {
+        let f = fly(&[SimFault::at_time(FaultKind::NavNaN, ONSET_S, steps(n))]);
+        let what = format!("NaN navigation for {n} steps");
+        assert_broke_away(&f, "NavLost", &what);
+        assert_eq!(breakaway_at(&f.run), Some(ONSET_S + steps(HOLD_LIMIT)));
+        // Breakaway without navigation flies open loop: trim surfaces, throttle cut.
+        let open: Vec<_> = f
+            .run
+            .samples
+            .iter()
+            .filter(|s| s.output.status.contains(StatusFlags::OPEN_LOOP))
+            .collect();
+        assert_eq!(
+            open.len() as u32,
+            n - HOLD_LIMIT,
+            "{what}: open loop while NaN"
+        );
+        let trim = ibvs_core::config::trim_command();
+        for s in open {
+            let c = s.output.command.as_array();
+            assert_eq!([c[0], c[2], c[3]], [trim[0], trim[2], trim[3]]);
+            assert!(c[1] < trim[1]);
+        }
+    }
+}
+
+#[test]
+fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
+    let stuck = |actuator| {
+        fly(&[SimFault::at_range(
+            FaultKind::ActuatorStuck { actuator },
+            5.5,
+            f64::INFINITY,
+        )])
+    };
+    let slow = |actuator, rate_per_s| {
+        fly(&[SimFault::at_time(
+            FaultKind::ActuatorRateLimited {
+                actuator,
+                rate_per_s,
+            },
+            0.0,
+            f64::INFINITY,
+        )])
+    };
+    // The lateral loop does without the rudder.
+    assert_docked(&stuck(Actuator::Rudder), "rudder stuck");
+    assert_docked(&slow(Actuator::Rudder, 0.01), "rudder at 0.6 deg/s");
+    assert_docked(&slow(Actuator::Aileron, 0.05), "aileron at 2.9 deg/s");
+    // Without the elevator, the aileron or the throttle the receiver drifts until the drogue
+    // leaves the image (or the navigation leaves the envelope): hold, then breakaway, before
+    // reaching the drogue plane.
+    assert_broke_away(
+        &stuck(Actuator::Elevator),
+        "MeasurementLost",
+        "elevator stuck",
+    );
+    assert_broke_away(
+        &stuck(Actuator::Aileron),
+        "MeasurementLost",
+        "aileron stuck",
+    );
+    assert_broke_away(
+        &stuck(Actuator::Throttle),
+        "MeasurementLost",
+        "throttle stuck",
+    );
+    assert_broke_away(
+        &slow(Actuator::Elevator, 0.05),
+        "MeasurementLost",
+        "elevator at 2.9 deg/s",
+    );
+    assert_broke_away(
+        &slow(Actuator::Aileron, 0.01),
+        "NavLost",
+        "aileron at 0.6 deg/s",
+    );
+}
+
+#[test]
+#[ignore = "known gap (docs/faults.md): nothing checks the closing speed before contact; with \
+            the throttle slewing at 5 %/s the probe hits the drogue at 3.7 m/s"]
+fn a_slow_throttle_does_not_end_in_an_unsafe_state() {
+    for rate_per_s in [0.01, 0.05] {
+        let f = fly(&[SimFault::at_time(
+            FaultKind::ActuatorRateLimited {
+                actuator: Actuator::Throttle,
+                rate_per_s,
+            },
+            0.0,
+            f64::INFINITY,
+        )]);
+        assert!(
+            !is_unsafe(&f.run),
+            "throttle at {rate_per_s}/s: {:?} {:?}",
+            f.run.summary,
+            f.run.contact
+        );
+    }
+}
+
+#[test]
+fn a_fault_that_never_starts_leaves_the_run_unchanged() {
+    let f = ScenarioFile::load("calm").expect("preset");
+    let plain = run(
+        &f.scenario(),
+        &mut Controller::new(f.controller_config()).expect("config"),
+    )
+    .expect("runs");
+    let idle = fly(&[
+        SimFault::at_range(FaultKind::ImageDropout, -1.0, 1.0),
+        SimFault::at_time(FaultKind::NavNaN, 1000.0, 1.0),
+    ]);
+    assert_eq!(idle.run.samples, plain.samples);
+    assert_eq!(idle.run.summary, plain.summary);
+}

@@ -1,0 +1,287 @@
+//! Monte Carlo campaigns: determinism per run index, shards merging into exactly the
+//! one-machine output, the summary's numbers, the command line. Campaigns here are small (CI);
+//! the 1,000-run campaigns are measured by hand (`docs/scenarios.md`, "Monte Carlo").
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use host_sim::montecarlo::{
+    self, CampaignMeta, CampaignSummary, RunOutcome, RunRecord, Shard, indices, run_campaign,
+    write_campaign,
+};
+use host_sim::scenario::ScenarioFile;
+use host_sim::sim::{self, Outcome};
+use ibvs_core::Controller;
+
+const FILES: [&str; 5] = [
+    "runs.jsonl",
+    "campaign.json",
+    "summary.json",
+    "miss_scatter.png",
+    "success_vs_turbulence.png",
+];
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("host-sim-mc-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&d).ok();
+    d
+}
+
+fn campaign(f: &ScenarioFile, runs: u64, shard: Option<Shard>, jobs: usize, dir: &Path) {
+    let lines = run_campaign(f, &indices(runs, shard), Some(jobs)).expect("campaign runs");
+    write_campaign(dir, &CampaignMeta::new(f, runs, shard), &lines).expect("written");
+}
+
+fn records(dir: &Path) -> Vec<RunRecord> {
+    std::fs::read_to_string(dir.join("runs.jsonl"))
+        .expect("runs.jsonl")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a record per line"))
+        .collect()
+}
+
+fn summary(dir: &Path) -> CampaignSummary {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("summary"))
+        .expect("summary parses")
+}
+
+#[test]
+fn shards_merge_into_exactly_the_one_machine_campaign() {
+    let f = ScenarioFile::load("paper-bow-wave").expect("preset");
+    let runs = 9;
+    let whole = temp("whole");
+    campaign(&f, runs, None, 2, &whole);
+    let shards: Vec<PathBuf> = (1..=3)
+        .map(|k| {
+            let d = temp(&format!("shard{k}"));
+            campaign(&f, runs, Some(Shard { k, m: 3 }), 1, &d);
+            d
+        })
+        .collect();
+    // Shards merged in any order, one of them given twice.
+    let merged = temp("merged");
+    let order = [
+        shards[2].clone(),
+        shards[0].clone(),
+        shards[1].clone(),
+        shards[0].clone(),
+    ];
+    montecarlo::merge(&order, &merged).expect("merges");
+    for file in FILES {
+        let (a, b) = (
+            std::fs::read(whole.join(file)).expect("whole"),
+            std::fs::read(merged.join(file)).expect("merged"),
+        );
+        assert!(
+            a == b,
+            "{file} differs between one machine and the merged shards"
+        );
+    }
+    // A run is a function of the scenario and its index: the records match single runs.
+    let recs = records(&whole);
+    assert_eq!(
+        recs.iter().map(|r| r.index).collect::<Vec<_>>(),
+        (0..runs).collect::<Vec<_>>()
+    );
+    for r in [&recs[0], &recs[7]] {
+        let file = f.dispersed(r.index);
+        let run = sim::run(
+            &file.scenario(),
+            &mut Controller::new(file.controller_config()).expect("config"),
+        )
+        .expect("runs");
+        assert_eq!(r.seed, file.seed);
+        assert_eq!(r.miss_m, run.summary.miss_m);
+        assert_eq!(r.docked, run.summary.outcome == Outcome::Docked);
+    }
+    // Incomplete or foreign shards are refused, naming the problem.
+    let e = montecarlo::merge(&shards[..2], &temp("partial"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("3 of 9 runs missing"), "{e}");
+    let other = temp("other");
+    campaign(
+        &ScenarioFile::load("calm").expect("preset"),
+        1,
+        None,
+        1,
+        &other,
+    );
+    let e = montecarlo::merge(&[whole.clone(), other.clone()], &temp("mixed"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("another campaign") && e.contains("scenario"),
+        "{e}"
+    );
+    for d in shards.iter().chain([&whole, &merged, &other]) {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn the_summary_counts_every_run_once_and_states_its_intervals() {
+    let dir = temp("summary");
+    let f = ScenarioFile::load("paper-level2").expect("preset");
+    campaign(&f, 8, None, 2, &dir);
+    let (s, recs) = (summary(&dir), records(&dir));
+    assert_eq!((s.runs, s.campaign_runs, s.shard.as_deref()), (8, 8, None));
+    assert_eq!(s.docked, recs.iter().filter(|r| r.docked).count() as u64);
+    assert_eq!(s.outcomes.values().sum::<u64>(), 8);
+    assert_eq!(s.failure_causes.values().sum::<u64>(), 8 - s.docked);
+    assert!(s.success_ci95.lower <= s.success_rate && s.success_rate <= s.success_ci95.upper);
+    assert_eq!(
+        s.success_ci95,
+        montecarlo::wilson(s.docked, s.runs),
+        "Wilson 95 %"
+    );
+    assert_eq!(
+        s.unsafe_end_states,
+        recs.iter().filter(|r| r.unsafe_end).count() as u64
+    );
+    let m = s.miss_m.expect("some runs reach the plane");
+    assert!(m.min <= m.p5 && m.p5 <= m.p50 && m.p50 <= m.p95 && m.p95 <= m.p99 && m.p99 <= m.max);
+    assert_eq!(m.count, recs.iter().filter(|r| r.miss_m.is_some()).count());
+    for r in &recs {
+        assert_eq!(r.docked, r.outcome == RunOutcome::Docked);
+        assert_eq!(r.failure.is_none(), r.docked);
+        if let (Some(miss), Some([x, y])) = (r.miss_m, r.plane_offset_m) {
+            assert!(
+                (x.hypot(y) - miss).abs() < 1e-9,
+                "the offset's length is the miss"
+            );
+        }
+    }
+    let bins = &s.success_by_turbulence;
+    assert_eq!(bins.iter().map(|b| b.runs).sum::<u64>(), 8);
+    assert_eq!(
+        (bins[0].sigma_lo_mps, bins[bins.len() - 1].sigma_hi_mps),
+        (0.56, 0.84)
+    );
+    for png in ["miss_scatter.png", "success_vs_turbulence.png"] {
+        let bytes = std::fs::read(dir.join(png)).expect("plot written");
+        assert_eq!(&bytes[1..4], b"PNG", "{png}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_off_nominal_cg_is_trimmed_for_and_still_docks() {
+    let nominal_theta = host_sim::receiver::F16::new(0.35)
+        .map(|m| m.trim_straight_level(120.0, 3000.0))
+        .expect("model")
+        .expect("trim")
+        .theta_rad;
+    for xcg in [0.30, 0.40] {
+        let mut f = ScenarioFile::load("calm").expect("preset");
+        f.receiver.xcg = xcg;
+        let run = sim::run(
+            &f.scenario(),
+            &mut Controller::new(f.controller_config()).expect("config"),
+        )
+        .expect("runs");
+        assert_eq!(
+            run.summary.outcome,
+            Outcome::Docked,
+            "xcg {xcg}: {:?}",
+            run.summary
+        );
+        // The receiver starts from its own trim (0.3 deg from the nominal one).
+        assert!(
+            (run.trim.theta_rad - nominal_theta).abs() > 1e-3,
+            "xcg {xcg}"
+        );
+    }
+}
+
+fn host_sim(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("host-sim runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The CI campaign: 50 dispersed runs of `paper-level2` through the command line, sharded
+/// and merged. Its numbers are a regression guard, not the measurement (that is 1,000 runs).
+#[test]
+fn cli_runs_a_fifty_run_campaign_in_shards_and_merges_it() {
+    let root = temp("cli");
+    let dir = |n: &str| root.join(n).to_str().expect("utf-8").to_string();
+    for k in ["1/2", "2/2"] {
+        let (ok, line, stderr) = host_sim(&[
+            "montecarlo",
+            "--scenario",
+            "paper-level2",
+            "--runs",
+            "50",
+            "--shard",
+            k,
+            "--out",
+            &dir(&k.replace('/', "of")),
+        ]);
+        assert!(ok, "{stderr}");
+        assert!(line.contains("25 runs (shard"), "{line}");
+        assert!(
+            stderr.contains("25 runs in"),
+            "wall time on stderr: {stderr}"
+        );
+    }
+    let (ok, line, stderr) = host_sim(&[
+        "montecarlo",
+        "merge",
+        &dir("1of2"),
+        &dir("2of2"),
+        "--out",
+        &dir("all"),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(line.starts_with("paper-level2: 50 runs, docked"), "{line}");
+    let s = summary(&root.join("all"));
+    assert_eq!(s.runs, 50);
+    assert!(
+        s.success_rate >= 0.8,
+        "level II with dispersion docked 92 % over 1,000 runs; 50 here: {line}"
+    );
+    // Run 3's scenario file, flown by `dock`, gives run 3's record.
+    let (ok, toml_text, stderr) = host_sim(&[
+        "montecarlo",
+        "--scenario",
+        "paper-level2",
+        "--show-run",
+        "3",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(!toml_text.contains("[dispersion]"), "{toml_text}");
+    let file = root.join("run3.toml");
+    std::fs::write(&file, toml_text).expect("written");
+    let (ok, json, stderr) = host_sim(&[
+        "dock",
+        "--scenario",
+        file.to_str().expect("utf-8"),
+        "--json",
+        "--no-files",
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    let r3 = &records(&root.join("all"))[3];
+    assert_eq!(v["miss_m"].as_f64(), r3.miss_m, "{json}");
+    // Bad arguments are named.
+    let (ok, _, stderr) = host_sim(&[
+        "montecarlo",
+        "--scenario",
+        "calm",
+        "--runs",
+        "4",
+        "--shard",
+        "3/2",
+    ]);
+    assert!(!ok && stderr.contains("K/M"), "{stderr}");
+    let (ok, _, stderr) = host_sim(&["montecarlo", "--scenario", "calm"]);
+    assert!(!ok && stderr.contains("--runs"), "{stderr}");
+    std::fs::remove_dir_all(&root).ok();
+}
