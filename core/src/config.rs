@@ -260,6 +260,12 @@ impl ControllerConfig {
             "modes.breakaway_down_mps (<= velocity_limits.max_vertical_mps)",
             md.breakaway_down_mps <= l.max_vertical_mps,
         )?;
+        check("modes.overspeed_mps", md.overspeed_mps, true)?;
+        check("modes.breakaway_accel_mps2", md.breakaway_accel_mps2, true)?;
+        require(
+            "modes.overspeed_mps (> velocity_limits.max_closing_mps)",
+            md.overspeed_mps > l.max_closing_mps,
+        )?;
         require(
             "modes.breakaway_aft_mps (<= velocity_limits.max_closing_mps)",
             md.breakaway_aft_mps <= l.max_closing_mps,

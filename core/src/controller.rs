@@ -23,7 +23,8 @@ use crate::gains::{self, CONTROL_PERIOD_S};
 use crate::inner::{Channel, EngineEstimate};
 use crate::kinematics::{lever_arm_lat, lever_arm_lon};
 use crate::measurement::{
-    CameraMeasurement, ImageFeature, LimitBits, MeasurementError, SequenceCheck, SequenceTracker,
+    CameraMeasurement, FreezeDetector, ImageFeature, LimitBits, MeasurementError, SequenceCheck,
+    SequenceTracker,
 };
 use crate::mode::{BreakawayReason, Mode, ModeInputs, ModeLimits, ModeMachine, ModeRequest};
 use crate::nav::{EnvelopeBits, NavError, NavSample};
@@ -102,6 +103,8 @@ pub struct Counters {
     pub repeated: u32,
     /// [`MeasurementError::OutOfOrder`] frames.
     pub out_of_order: u32,
+    /// [`MeasurementError::Frozen`] frames.
+    pub frozen: u32,
     /// [`NavError::NonFinite`] samples.
     pub nav_non_finite: u32,
     /// [`NavError::OutsideEnvelope`] samples.
@@ -130,6 +133,7 @@ impl Counters {
             MeasurementError::OutsideFieldOfView => &mut self.outside_fov,
             MeasurementError::Repeated => &mut self.repeated,
             MeasurementError::OutOfOrder => &mut self.out_of_order,
+            MeasurementError::Frozen => &mut self.frozen,
         };
         *c = c.saturating_add(1);
     }
@@ -179,6 +183,8 @@ struct Derived {
     modes: ModeLimits,
     /// Largest change of the desired velocity per step, each axis, m/s.
     slew_step_mps: f32,
+    /// The same in breakaway, m/s.
+    breakaway_slew_step_mps: f32,
     /// Throttle of an open-loop breakaway (trim minus the cut).
     open_loop_throttle: f32,
 }
@@ -197,6 +203,7 @@ impl Derived {
                 .ok_or_else(|| inconsistent("measurement"))?,
             modes: ModeLimits::new(&cfg.modes, Controller::PERIOD_S),
             slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
+            breakaway_slew_step_mps: cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S,
             open_loop_throttle: trim_command()[1] - cfg.modes.breakaway_throttle_cut,
         })
     }
@@ -212,6 +219,7 @@ pub struct Controller {
     lat: Channel<5, 1, 2>,
     modes: ModeMachine,
     sequence: SequenceTracker,
+    freeze: FreezeDetector,
     last_nav: NavSample,
     last_outer: OuterOutput,
     v_cmd: VelocityRe,
@@ -240,6 +248,7 @@ impl Controller {
             derived,
             modes: ModeMachine::default(),
             sequence: SequenceTracker::default(),
+            freeze: FreezeDetector::default(),
             last_nav: NavSample::default(),
             last_outer: OuterOutput::default(),
             v_cmd: VelocityRe::ZERO,
@@ -279,7 +288,10 @@ impl Controller {
                     self.counters.frames_dropped =
                         self.counters.frames_dropped.saturating_add(dropped);
                 }
-                m.check(&self.derived.measurement)
+                m.check(&self.derived.measurement).and_then(|f| {
+                    self.freeze
+                        .observe(f, self.cfg.measurement.frozen_frame_limit)
+                })
             }
             SequenceCheck::Rejected(e) => Err(e),
         };
@@ -406,6 +418,7 @@ impl Controller {
         if mode == Mode::Standby && before != Mode::Standby {
             // Reset: the next engage starts afresh, from any camera numbering.
             self.sequence.reset();
+            self.freeze.reset();
         }
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
@@ -413,7 +426,11 @@ impl Controller {
             outer::slew(
                 &self.v_cmd,
                 &self.mode_velocity(),
-                self.derived.slew_step_mps,
+                if mode == Mode::Breakaway {
+                    self.derived.breakaway_slew_step_mps
+                } else {
+                    self.derived.slew_step_mps
+                },
             )
         };
         let v_des = self.v_cmd;

@@ -45,6 +45,11 @@ pub enum MeasurementError {
     Repeated,
     /// Sequence number older than the last frame's (late or reordered frame).
     OutOfOrder,
+    /// A new frame (the sequence number advanced) whose image point and depth are, bit for
+    /// bit, those of the last valid frame: a stuck tracker or a frozen image pipeline. A
+    /// real tracker's centroids carry noise and the receiver is never still to the last bit,
+    /// so an identical frame is not a measurement.
+    Frozen,
 }
 
 /// Plausibility limits for a frame.
@@ -58,6 +63,12 @@ pub struct MeasurementLimits {
     pub half_fov_x: f32,
     /// Half field of view, vertical, as a normalised coordinate: 240 px / 500 px.
     pub half_fov_y: f32,
+    /// New frames in a row that may repeat the last valid frame's image point and depth bit
+    /// for bit; the next such frame is rejected as [`MeasurementError::Frozen`] (and so are
+    /// all that follow until the content changes). Default 5 (0.1 s at 50 Hz): with a
+    /// tracker's noise of a fraction of a pixel, six identical frames in a row do not happen
+    /// while the tracker works.
+    pub frozen_frame_limit: u16,
 }
 
 impl Default for MeasurementLimits {
@@ -66,6 +77,7 @@ impl Default for MeasurementLimits {
             max_depth_m: 50.0,
             half_fov_x: 0.64,
             half_fov_y: 0.48,
+            frozen_frame_limit: 5,
         }
     }
 }
@@ -144,6 +156,47 @@ impl SequenceTracker {
     /// Forgets the last frame (used when the controller is reset to standby).
     pub fn reset(&mut self) {
         self.last_seq = None;
+    }
+}
+
+/// Detects a frozen measurement ([`MeasurementError::Frozen`]): remembers the bits of the
+/// last valid frame's image point and depth and how many new frames in a row repeated them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FreezeDetector {
+    last: Option<[u32; 3]>,
+    repeats: u16,
+}
+
+impl FreezeDetector {
+    /// Passes `f` unless it is the `limit + 1`-th (or a later) new frame in a row to repeat
+    /// the last valid feature bit for bit. Every frame is compared, a rejected one too, so a
+    /// frozen stream stays rejected until its content changes.
+    #[inline]
+    pub fn observe(
+        &mut self,
+        f: ImageFeature,
+        limit: u16,
+    ) -> Result<ImageFeature, MeasurementError> {
+        let bits = [
+            f.image_x.to_bits(),
+            f.image_y.to_bits(),
+            f.depth_m.to_bits(),
+        ];
+        if self.last == Some(bits) {
+            self.repeats = self.repeats.saturating_add(1);
+            if self.repeats > limit {
+                return Err(MeasurementError::Frozen);
+            }
+        } else {
+            self.last = Some(bits);
+            self.repeats = 0;
+        }
+        Ok(f)
+    }
+
+    /// Forgets the last frame (used when the controller is reset to standby).
+    pub fn reset(&mut self) {
+        *self = Self::default();
     }
 }
 

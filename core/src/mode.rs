@@ -8,6 +8,7 @@
 //! | any but standby | `Reset` request | Standby |
 //! | approach, terminal, docked | `Abort` request | Breakaway(Abort) |
 //! | approach, terminal, docked | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
+//! | approach, terminal | camera forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
 //! | standby | `Engage` request with a valid measurement and valid navigation | Approach |
 //! | approach | measurement invalid for more than `hold_limit_steps` steps | Breakaway(MeasurementLost) |
 //! | approach | valid measurement with depth <= `terminal_depth_m`, offset > `terminal_max_offset_m` | Breakaway(PredictedMiss) |
@@ -78,6 +79,9 @@ pub enum BreakawayReason {
     TerminalTimeout,
     /// Contact was lost while docked.
     ContactLost,
+    /// Closing on the drogue faster than [`ModeConfig::overspeed_mps`]: a contact at that
+    /// speed could damage the probe, the drogue or the hose.
+    Overspeed,
 }
 
 /// Parameters of the mode logic.
@@ -101,6 +105,18 @@ pub struct ModeConfig {
     pub breakaway_down_mps: f32,
     /// Breakaway without navigation: throttle reduction from trim, open loop.
     pub breakaway_throttle_cut: f32,
+    /// Largest camera forward speed relative to the tanker (from navigation, `C x`) in
+    /// approach and terminal; above it the controller breaks away (`Overspeed`), m/s. Must
+    /// exceed `velocity_limits.max_closing_mps`. Default 2.3 m/s: 0.3 m/s above the largest
+    /// commanded closing speed (2.0), and below 2.6 m/s (5 kt, the upper end of the
+    /// operational contact band, `../shared/reference/model-data.md`), so that the breakaway
+    /// starts before the speed leaves the band. No run of the 1,000-run `paper-level2` and
+    /// `paper-bow-wave` campaigns exceeds even 2.05 m/s (docs/faults.md).
+    pub overspeed_mps: f32,
+    /// Breakaway: largest change of the desired velocity, m/s², each axis (the approach's
+    /// is `velocity_limits.max_accel_mps2`). A breakaway is the manoeuvre that must not be
+    /// gentle: at the approach's 0.5 m/s² the descent takes 2 s to build up.
+    pub breakaway_accel_mps2: f32,
 }
 
 impl Default for ModeConfig {
@@ -114,6 +130,8 @@ impl Default for ModeConfig {
             breakaway_aft_mps: 2.0,
             breakaway_down_mps: 1.0,
             breakaway_throttle_cut: 0.05,
+            overspeed_mps: 2.3,
+            breakaway_accel_mps2: 2.0,
         }
     }
 }
@@ -246,6 +264,12 @@ impl ModeMachine {
         }
         if engaged && self.nav_invalid_steps > cfg.hold_limit_steps {
             self.break_away(BreakawayReason::NavLost);
+            return false;
+        }
+        if matches!(self.mode, Mode::Approach | Mode::Terminal)
+            && inp.camera_fwd_mps > cfg.overspeed_mps
+        {
+            self.break_away(BreakawayReason::Overspeed);
             return false;
         }
         match self.mode {
@@ -428,6 +452,43 @@ mod tests {
             assert!(!m.holding_measurement());
         }
         assert_eq!(m.mode(), Mode::Approach);
+    }
+
+    #[test]
+    fn closing_faster_than_the_overspeed_limit_breaks_away_in_approach_and_terminal() {
+        let cfg = ModeConfig::default();
+        let at = |m: &mut ModeMachine, inp: ModeInputs, fwd: f32| {
+            m.update(
+                &ModeInputs {
+                    camera_fwd_mps: fwd,
+                    ..inp
+                },
+                &cfg,
+                TS,
+            );
+            m.mode()
+        };
+        let limit = cfg.overspeed_mps;
+        let above = f32::from_bits(limit.to_bits() + 1);
+        // At the limit: no breakaway; just above: Overspeed, in approach and in terminal.
+        let mut m = engaged();
+        assert_eq!(at(&mut m, inputs(), limit), Mode::Approach);
+        assert_eq!(at(&mut m, inputs(), above), Mode::Breakaway);
+        assert_eq!(m.breakaway_reason(), Some(BreakawayReason::Overspeed));
+        let mut m = terminal();
+        assert_eq!(at(&mut m, inputs(), limit), Mode::Terminal);
+        assert_eq!(at(&mut m, inputs(), above), Mode::Breakaway);
+        assert_eq!(m.breakaway_reason(), Some(BreakawayReason::Overspeed));
+        // Not checked in standby or while docked (the receiver moves with the drogue).
+        let mut m = ModeMachine::default();
+        assert_eq!(at(&mut m, inputs(), 10.0), Mode::Standby);
+        let mut m = terminal();
+        let contact = ModeInputs {
+            probe_contact: true,
+            ..inputs()
+        };
+        assert_eq!(at(&mut m, contact, 1.0), Mode::Docked);
+        assert_eq!(at(&mut m, contact, 10.0), Mode::Docked);
     }
 
     #[test]

@@ -20,7 +20,7 @@
 //!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 73 to 81 bytes on the wire, a command frame 93 to 251 (measured by
+//! A measurement frame is 73 to 81 bytes on the wire, a command frame 94 to 256 (measured by
 //! the tests with the largest values of every field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
@@ -44,7 +44,7 @@ use crate::controller::{ControllerInput, ControllerOutput, Counters};
 use crate::measurement::{MeasurementError, SequenceCheck};
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 256;
@@ -611,6 +611,7 @@ mod tests {
             outside_fov: m,
             repeated: m,
             out_of_order: m,
+            frozen: m,
             nav_non_finite: m,
             nav_outside_envelope: m,
             measurement_held_steps: m,
@@ -750,7 +751,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, frame.len()),
-            (73, 81, 93, 251),
+            (73, 81, 94, 256),
             "update the module doc"
         );
     }

@@ -34,6 +34,16 @@ fn trim() -> [f32; 4] {
     ]
 }
 
+/// The default configuration with the frozen-measurement check off (its limit at the largest
+/// value, 22 minutes at 50 Hz): most tests here show the drogue at one fixed image point for
+/// many steps, which a working tracker's noise never produces. The check has its own tests
+/// (`frozen_frames_...`), on the default configuration.
+fn config() -> ControllerConfig {
+    let mut cfg = ControllerConfig::default();
+    cfg.measurement.frozen_frame_limit = u16::MAX;
+    cfg
+}
+
 /// Largest change of the desired velocity per step, each axis.
 fn max_slew_step(cfg: &ControllerConfig) -> f32 {
     cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S
@@ -158,7 +168,7 @@ fn assert_slews_toward(prev: &VelocityRe, now: &VelocityRe, target: &VelocityRe,
 
 #[test]
 fn engage_is_refused_without_a_valid_frame_and_accepted_with_one() {
-    let mut rig = Rig::new(ControllerConfig::default());
+    let mut rig = Rig::new(config());
     let engage = |i: &mut ControllerInput| i.request = ModeRequest::Engage;
 
     let out = rig.step_with(MID, |i| {
@@ -206,7 +216,7 @@ fn ibvs_law(cfg: &ControllerConfig, seen: Seen) -> VelocityRe {
 
 #[test]
 fn engaging_slews_the_desired_velocity_from_rest_to_the_law() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let law = ibvs_law(&cfg, MID);
     let mut rig = Rig::new(cfg);
     let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
@@ -263,6 +273,8 @@ fn bad_frame(
             seq: last.seq.wrapping_sub(1),
             ..*last
         },
+        // The same content with a fresh frame number (the test's frames already repeat it).
+        MeasurementError::Frozen => next,
     }
 }
 
@@ -275,6 +287,7 @@ fn error_count(c: &ibvs_core::Counters, kind: MeasurementError) -> u32 {
         MeasurementError::OutsideFieldOfView => c.outside_fov,
         MeasurementError::Repeated => c.repeated,
         MeasurementError::OutOfOrder => c.out_of_order,
+        MeasurementError::Frozen => c.frozen,
     }
 }
 
@@ -283,7 +296,7 @@ fn error_count(c: &ibvs_core::Counters, kind: MeasurementError) -> u32 {
 /// velocity, target and commands), flagged MEASUREMENT_HELD, for `hold_limit_steps` steps,
 /// and break away (MeasurementLost) on the next.
 fn invalid_frames_are_held_then_break_away(kind: MeasurementError) {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut held = Rig::engaged(cfg, perturbed_nav(), MID);
     for _ in 0..3 {
         held.step(MID);
@@ -369,9 +382,79 @@ fn late_frames_hold_the_last_command_then_break_away() {
     invalid_frames_are_held_then_break_away(MeasurementError::OutOfOrder);
 }
 
+/// A stuck tracker: new frame numbers, the same image point and depth bit for bit. The
+/// default configuration accepts `frozen_frame_limit` repeats of a frame's content, rejects
+/// the next ones as `Frozen` (held, as any invalid frame) and breaks away when the hold runs
+/// out.
+#[test]
+fn frozen_frames_are_accepted_up_to_the_limit_then_held_then_break_away() {
+    let cfg = ControllerConfig::default();
+    let repeats = u32::from(cfg.measurement.frozen_frame_limit);
+    let hold = u32::from(cfg.modes.hold_limit_steps);
+    assert!(repeats > 0 && hold > 0);
+    // Engaged on a frame showing MID: its content's first frame.
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    for k in 1..=repeats {
+        let out = rig.step(MID);
+        assert_eq!(out.measurement_error, None, "repeat {k} of {repeats}");
+        assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
+    }
+    for k in 1..=hold {
+        let out = rig.step(MID);
+        assert_eq!(out.mode, Mode::Approach, "held step {k}");
+        assert_eq!(out.measurement_error, Some(MeasurementError::Frozen));
+        assert!(has(&out, StatusFlags::MEASUREMENT_HELD));
+        let c = rig.ctl.counters();
+        assert_eq!((c.frozen, c.measurement_held_steps), (k, k));
+        assert_eq!(c.frames_valid, 1 + repeats);
+    }
+    let out = rig.step(MID);
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.breakaway_reason, Some(BreakawayReason::MeasurementLost));
+}
+
+/// Any change of the content restarts the count; a frame whose number did not advance is
+/// `Repeated`, not a repeat of content, and does not count toward `Frozen`.
+#[test]
+fn a_changed_frame_restarts_the_frozen_count_and_repeated_numbers_do_not_count() {
+    let cfg = ControllerConfig::default();
+    let repeats = cfg.measurement.frozen_frame_limit;
+    let moved = Seen {
+        depth_m: f32::from_bits(MID.depth_m.to_bits() + 1),
+        ..MID
+    };
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    for _ in 0..3 {
+        for _ in 0..repeats {
+            assert_eq!(rig.step(MID).measurement_error, None);
+        }
+        // One ulp of depth is a different frame.
+        assert_eq!(rig.step(moved).measurement_error, None);
+        assert_eq!(rig.step(MID).measurement_error, None);
+    }
+    // The same frame number again, many times: Repeated, and the content count stays.
+    let again = rig.healthy_input(MID);
+    assert_eq!(rig.ctl.step(&again).measurement_error, None);
+    for _ in 0..2 * repeats {
+        assert_eq!(
+            rig.ctl.step(&again).measurement_error,
+            Some(MeasurementError::Repeated)
+        );
+    }
+    for _ in 1..repeats {
+        assert_eq!(rig.step(MID).measurement_error, None);
+    }
+    assert_eq!(
+        rig.step(MID).measurement_error,
+        Some(MeasurementError::Frozen)
+    );
+    assert_eq!(rig.ctl.counters().frozen, 1);
+    assert_eq!(rig.ctl.mode(), Mode::Approach);
+}
+
 #[test]
 fn one_valid_frame_restarts_the_hold_count() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let limit = cfg.modes.hold_limit_steps;
     let mut rig = Rig::engaged(cfg, NavSample::default(), MID);
     for _ in 0..3 {
@@ -391,7 +474,7 @@ fn one_valid_frame_restarts_the_hold_count() {
 
 #[test]
 fn a_sequence_gap_counts_the_dropped_frames_and_uses_the_frame() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     for start in [100_u32, u32::MAX - 1] {
         let mut rig = Rig {
             seq: start.wrapping_sub(1),
@@ -426,7 +509,7 @@ fn a_sequence_gap_counts_the_dropped_frames_and_uses_the_frame() {
 
 #[test]
 fn invalid_navigation_flies_the_held_sample_with_frozen_integrators_then_breaks_away() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     for _ in 0..20 {
         rig.step(MID);
@@ -483,7 +566,7 @@ fn invalid_navigation_flies_the_held_sample_with_frozen_integrators_then_breaks_
 
 #[test]
 fn navigation_outside_the_envelope_is_held_and_counted() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     rig.step(MID);
     let q0 = rig.ctl.integrators_m();
@@ -499,7 +582,7 @@ fn navigation_outside_the_envelope_is_held_and_counted() {
 
 #[test]
 fn an_aborted_approach_without_navigation_flies_open_loop_at_once() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     rig.step(MID);
     let out = rig.step_with(MID, |i| {
@@ -547,7 +630,7 @@ fn at_terminal_depth(cfg: &ControllerConfig, offset_m: f32) -> Seen {
 
 #[test]
 fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let (mut rig, last) = approach_to_terminal_depth(cfg, NavSample::default());
     let out = rig.step(at_terminal_depth(&cfg, 0.1));
     assert_eq!(out.mode, Mode::Terminal);
@@ -579,7 +662,7 @@ fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
 
 #[test]
 fn a_large_offset_at_the_terminal_depth_predicts_a_miss() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
     // 1.3 times the limit: still inside the field of view at the terminal depth.
     let out = rig.step(at_terminal_depth(
@@ -592,7 +675,7 @@ fn a_large_offset_at_the_terminal_depth_predicts_a_miss() {
 
 #[test]
 fn terminal_dead_reckons_the_navigation_speed_past_the_drogue_plane() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut nav = NavSample::default();
     nav.lon.v_mps = 1.0; // closing on the tanker at 1 m/s: the camera's forward speed
     let (mut rig, _) = approach_to_terminal_depth(cfg, nav);
@@ -620,7 +703,7 @@ fn terminal_dead_reckons_the_navigation_speed_past_the_drogue_plane() {
 
 #[test]
 fn contact_docks_and_losing_it_breaks_away_aft_and_down() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
     assert_eq!(rig.step(at_terminal_depth(&cfg, 0.1)).mode, Mode::Terminal);
     let contact = |i: &mut ControllerInput| i.probe_contact = true;
@@ -662,7 +745,7 @@ fn contact_docks_and_losing_it_breaks_away_aft_and_down() {
 
 #[test]
 fn reset_returns_to_standby_with_the_trim_command_exactly() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     for _ in 0..30 {
         rig.step(MID);
@@ -691,7 +774,7 @@ fn reset_returns_to_standby_with_the_trim_command_exactly() {
 
 #[test]
 fn abort_breaks_away_from_approach_and_only_reset_leaves_it() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     rig.step(MID);
     let out = rig.step_with(MID, |i| i.request = ModeRequest::Abort);
@@ -718,7 +801,7 @@ fn abort_breaks_away_from_approach_and_only_reset_leaves_it() {
 
 #[test]
 fn abort_in_standby_is_ignored() {
-    let mut rig = Rig::new(ControllerConfig::default());
+    let mut rig = Rig::new(config());
     let out = rig.step_with(MID, |i| i.request = ModeRequest::Abort);
     assert_eq!(out.mode, Mode::Standby);
     assert_eq!(out.breakaway_reason, None);
@@ -746,7 +829,7 @@ fn wind_up(cfg: ControllerConfig, steps: usize) -> (Rig, u16) {
 }
 
 fn wide_limits() -> ControllerConfig {
-    let mut cfg = ControllerConfig::default();
+    let mut cfg = config();
     cfg.actuators.min = [-1e3; 4];
     cfg.actuators.max = [1e3; 4];
     cfg
@@ -755,8 +838,8 @@ fn wide_limits() -> ControllerConfig {
 #[test]
 fn saturation_freezes_the_integrators_and_limits_wind_up() {
     const STEPS: usize = 400;
-    let (half, _) = wind_up(ControllerConfig::default(), STEPS / 2);
-    let (constrained, bits) = wind_up(ControllerConfig::default(), STEPS);
+    let (half, _) = wind_up(config(), STEPS / 2);
+    let (constrained, bits) = wind_up(config(), STEPS);
     let (free, free_bits) = wind_up(wide_limits(), STEPS);
 
     let c = constrained.ctl.counters();
@@ -794,9 +877,7 @@ fn saturation_freezes_the_integrators_and_limits_wind_up() {
         "lat wound up: {q:?} vs {q_free:?}"
     );
     assert!(
-        q_free
-            .iter()
-            .all(|v| v.abs() < ControllerConfig::default().integrator_limit_m),
+        q_free.iter().all(|v| v.abs() < config().integrator_limit_m),
         "the comparison run must not be clamped instead: {q_free:?}"
     );
 }
@@ -806,7 +887,7 @@ fn saturation_freezes_the_integrators_and_limits_wind_up() {
 
 /// What `Controller::new` says about the default configuration changed by `spoil`.
 fn rejection(spoil: impl FnOnce(&mut ControllerConfig)) -> Option<ConfigError> {
-    let mut cfg = ControllerConfig::default();
+    let mut cfg = config();
     spoil(&mut cfg);
     Controller::new(cfg).err()
 }
@@ -839,7 +920,7 @@ fn new_rejects_an_invalid_config_naming_the_field() {
 
 #[test]
 fn uplink_of_a_real_input_round_trips_and_steps_identically() {
-    let mut rig = Rig::engaged(ControllerConfig::default(), perturbed_nav(), MID);
+    let mut rig = Rig::engaged(config(), perturbed_nav(), MID);
     let mut twin = rig.clone();
     let mut input = rig.healthy_input(MID);
     input.request = ModeRequest::Abort;
@@ -854,7 +935,7 @@ fn uplink_of_a_real_input_round_trips_and_steps_identically() {
 
 #[test]
 fn downlink_of_a_real_step_fits_a_frame_and_round_trips() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
     for _ in 0..100 {
         rig.step(MID);
@@ -896,7 +977,7 @@ fn downlink_of_a_real_step_fits_a_frame_and_round_trips() {
 /// zero, so after a reset the next engage flies exactly like the first one.
 #[test]
 fn a_re_engage_after_reset_flies_like_the_first_engage() {
-    let cfg = ControllerConfig::default();
+    let cfg = config();
     let (mut used, _) = wind_up(cfg, 300);
     let out = used.step_with(MID, |i| i.request = ModeRequest::Reset);
     assert_eq!(out.mode, Mode::Standby);
@@ -918,7 +999,7 @@ fn a_re_engage_after_reset_flies_like_the_first_engage() {
 /// engage at once instead of being rejected as `OutOfOrder`.
 #[test]
 fn reset_forgets_the_frame_sequence_so_a_restarted_camera_can_engage() {
-    let mut rig = Rig::engaged(ControllerConfig::default(), NavSample::default(), MID);
+    let mut rig = Rig::engaged(config(), NavSample::default(), MID);
     rig.step(MID);
     rig.step_with(MID, |i| i.request = ModeRequest::Reset);
     assert_eq!(rig.ctl.mode(), Mode::Standby);

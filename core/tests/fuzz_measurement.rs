@@ -79,6 +79,7 @@ fn valid_limits() -> impl Strategy<Value = MeasurementLimits> {
                 max_depth_m: d,
                 half_fov_x: x,
                 half_fov_y: y,
+                ..MeasurementLimits::default()
             }
         }),
     ]
@@ -236,6 +237,7 @@ fn any_limits() -> impl Strategy<Value = MeasurementLimits> {
         max_depth_m: d,
         half_fov_x: x,
         half_fov_y: y,
+        ..MeasurementLimits::default()
     })
 }
 

@@ -22,6 +22,8 @@
 //! `cargo test --release -p ibvs-core --test fuzz_step -- --ignored`.
 
 use ibvs_core::controller::StatusFlags;
+use ibvs_core::gains::{LON, TRIM};
+use ibvs_core::kinematics::lever_arm_lon;
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::mode::ModeConfig;
 use ibvs_core::nav::NavSample;
@@ -63,11 +65,18 @@ fn frame_content() -> impl Strategy<Value = (bool, f32, f32, f32)> {
 }
 
 /// Navigation: trim (the blind phase then neither closes nor passes the plane, so its time
-/// limit is reached), small perturbations, or arbitrary bits.
+/// limit is reached), small perturbations, closing around the overspeed limit, or arbitrary
+/// bits.
 fn nav() -> impl Strategy<Value = NavSample> {
     prop_oneof![
         3 => Just(NavSample::default()),
         2 => prop::array::uniform12(-0.2_f32..0.2).prop_map(NavSample::from_array),
+        1 => (1.5_f32..3.5, -0.3_f32..0.3).prop_map(|(v_mps, q_radps)| {
+            let mut n = NavSample::default();
+            n.lon.v_mps = v_mps;
+            n.lon.q_radps = q_radps;
+            n
+        }),
         1 => prop::array::uniform12(bits()).prop_map(NavSample::from_array),
     ]
 }
@@ -153,6 +162,8 @@ struct ModeModel {
     meas_invalid: u16,
     nav_invalid: u16,
     terminal_steps: u32,
+    /// The last valid navigation sample (the controller flies on it while navigation is bad).
+    last_nav: NavSample,
 }
 
 impl ModeModel {
@@ -166,6 +177,9 @@ impl ModeModel {
     ) -> Result<(), String> {
         use Allowed::*;
         let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
+        if nav_ok {
+            self.last_nav = input.nav;
+        }
         self.nav_invalid = if nav_ok {
             0
         } else {
@@ -182,6 +196,10 @@ impl ModeModel {
             brk(BreakawayReason::Abort)
         } else if engaged && self.nav_invalid > cfg.hold_limit_steps {
             brk(BreakawayReason::NavLost)
+        } else if matches!(before, Mode::Approach | Mode::Terminal)
+            && camera_fwd_mps(&self.last_nav) > cfg.overspeed_mps
+        {
+            brk(BreakawayReason::Overspeed)
         } else {
             match before {
                 Mode::Standby if input.request == ModeRequest::Engage => {
@@ -252,6 +270,17 @@ impl ModeModel {
         (self.mode, self.reason) = got;
         Ok(())
     }
+}
+
+/// The camera's forward speed relative to the tanker for a navigation sample, m/s: the
+/// airspeed perturbation plus the pitch rate times the lever arm of the default camera
+/// position (`docs/conventions.md`; the generated output row is `[0, 1, 0, 0, 0]` at the CG).
+/// Single-precision, one rounding, as the controller's `C x` gives it.
+fn camera_fwd_mps(nav: &NavSample) -> f32 {
+    let cam = ControllerConfig::default().camera.position_body_m;
+    let fwd_per_q = lever_arm_lon(cam, TRIM.theta_rad)[1][3];
+    assert_eq!(LON.c_cg[1], [0.0, 1.0, 0.0, 0.0, 0.0], "output row changed");
+    nav.lon.v_mps + fwd_per_q * nav.lon.q_radps
 }
 
 /// Steps of the blind phase's time limit, as the core rounds it.

@@ -201,7 +201,7 @@ fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
 }
 
 /// Per-error measurement counters, in [`MeasurementError`] declaration order.
-fn error_counters(c: &Counters) -> [u32; 7] {
+fn error_counters(c: &Counters) -> [u32; 8] {
     [
         c.not_tracked,
         c.non_finite,
@@ -210,6 +210,7 @@ fn error_counters(c: &Counters) -> [u32; 7] {
         c.outside_fov,
         c.repeated,
         c.out_of_order,
+        c.frozen,
     ]
 }
 
@@ -222,6 +223,7 @@ fn error_index(e: MeasurementError) -> usize {
         MeasurementError::OutsideFieldOfView => 4,
         MeasurementError::Repeated => 5,
         MeasurementError::OutOfOrder => 6,
+        MeasurementError::Frozen => 7,
     }
 }
 
@@ -287,7 +289,7 @@ fn check_invariants(
             "every frame counted once: {:?}",
             after
         );
-        let moved: Vec<usize> = (0..7)
+        let moved: Vec<usize> = (0..errors.len())
             .filter(|&i| errors[i] != error_counters(&before)[i])
             .collect();
         match out.measurement_error {

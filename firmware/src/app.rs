@@ -618,9 +618,12 @@ mod tests {
         }
     }
 
+    /// Frame `cam_seq` of a drogue closing slowly (the content changes every frame, as a
+    /// working tracker's does: the core rejects a frozen one).
     fn input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
         let mut i = engage_input();
         i.measurement.seq = cam_seq;
+        i.measurement.depth_m -= 0.001 * cam_seq as f32;
         i.request = request;
         i
     }

@@ -17,6 +17,11 @@ use serde::Serialize;
 /// The closing-speed band that opens the coupling without damage, m/s (about 1 to 5 knots).
 pub const CLOSING_BAND_MPS: (f64, f64) = (0.5, 2.6);
 
+/// Clearance from the drogue centre below which passing the drogue plane faster than the
+/// closing band is unsafe even after a breakaway, m: one canopy diameter (0.6096 m,
+/// model-data.md), so the probe passes clear of the canopy's rim.
+pub const FAST_PASS_CLEARANCE_M: f64 = 0.6096;
+
 /// What happened at the drogue plane.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Contact {

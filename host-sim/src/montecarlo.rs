@@ -22,9 +22,11 @@
 //! - *success*: the run docked ([`Outcome::Docked`]: inside the capture radius and the
 //!   closing band at the first crossing of the drogue plane);
 //! - *unsafe end state*: the probe tip crossed the drogue plane before any breakaway outside
-//!   the capture radius, or crossed it (at any time) faster than the closing band's maximum.
-//!   A crossing after a breakaway at a safe speed is counted separately
-//!   (`crossed_after_breakaway`), not as unsafe.
+//!   the capture radius, or crossed it (at any time) faster than the closing band's maximum
+//!   closer to the drogue centre than one canopy diameter
+//!   ([`crate::docking::FAST_PASS_CLEARANCE_M`]). Any other crossing after a breakaway (slow,
+//!   or fast and clear of the canopy) is counted separately (`crossed_after_breakaway`), not
+//!   as unsafe.
 //!
 //! Invariants: nothing in the files depends on the machine, the number of jobs or the shard
 //! split (wall time is printed, not written); the summary is computed from the JSON lines as
@@ -42,7 +44,7 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::docking::CLOSING_BAND_MPS;
+use crate::docking::{CLOSING_BAND_MPS, FAST_PASS_CLEARANCE_M};
 use crate::output::OutputError;
 use crate::plot::{self, PALETTE};
 use crate::scenario::{DispersionSection, ScenarioError, ScenarioFile};
@@ -272,13 +274,13 @@ fn plane_offset(run: &Run) -> Option<[f64; 2]> {
 
 /// True when `run` ended in an unsafe state (module doc): the probe tip crossed the drogue
 /// plane before any breakaway at or outside the capture radius, or crossed it faster than
-/// the closing band.
+/// the closing band within one canopy diameter of the drogue centre.
 pub fn is_unsafe(run: &Run) -> bool {
     let wide = run.summary.miss_m.is_some_and(|m| m >= CAPTURE_RADIUS_M);
-    let too_fast = run
+    let fast_and_close = run
         .contact
-        .is_some_and(|c| c.closure_mps > CLOSING_BAND_MPS.1);
-    wide || too_fast
+        .is_some_and(|c| c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M);
+    wide || fast_and_close
 }
 
 /// The record of a finished run.
@@ -623,11 +625,11 @@ fn definitions() -> BTreeMap<String, String> {
         ),
         (
             "unsafe_end_states",
-            "the probe tip crossed the drogue plane before any breakaway at or outside the capture radius, or crossed it (at any time) faster than 2.6 m/s",
+            "the probe tip crossed the drogue plane before any breakaway at or outside the capture radius, or crossed it (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
         ),
         (
             "crossed_after_breakaway",
-            "the probe tip crossed the drogue plane after the controller had broken away (counted as unsafe only when faster than 2.6 m/s)",
+            "the probe tip crossed the drogue plane after the controller had broken away (counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
         ),
         (
             "ci95",
