@@ -2,7 +2,8 @@
 # Runs every test of the workspace on a fresh machine, installing what it needs first.
 #
 #   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
-#      fault) and QEMU (Debian's qemu-system-arm);
+#      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump, for the static
+#      bound of the control step in the benchmark gate);
 #   2. both firmware boards cross-built: the core links for the STM32F405 with no allocator
 #      (a use of `alloc` would fail this link);
 #   3. the qemu board run in QEMU's netduinoplus2 (an emulated STM32F405): its power-on
@@ -16,9 +17,9 @@ cd "$(dirname "$0")/.."
 rustup target add thumbv7em-none-eabihf
 rustup component add rustfmt
 command -v flip-link >/dev/null || cargo install flip-link --locked
-if ! command -v qemu-system-arm >/dev/null; then
+if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump >/dev/null; then
     apt-get update
-    apt-get install -y qemu-system-arm
+    apt-get install -y qemu-system-arm binutils-arm-none-eabi
 fi
 
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release
@@ -27,5 +28,6 @@ cargo build --locked -p firmware --target thumbv7em-none-eabihf --release \
 timeout 120 cargo run --locked -p firmware --target thumbv7em-none-eabihf --release
 cargo fmt --all -- --check
 export IBVS_FIRMWARE_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
+export IBVS_FIRMWARE_F405_ELF="$PWD/target/f405/thumbv7em-none-eabihf/release/firmware"
 cargo test --locked --workspace --all-targets
 cargo test --locked --workspace --doc

@@ -163,7 +163,11 @@ impl SequenceTracker {
 /// last valid frame's image point and depth and how many new frames in a row repeated them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct FreezeDetector {
-    last: Option<[u32; 3]>,
+    /// Bits of the last valid frame's image x, image y and depth (meaningful when `primed`).
+    last: [u32; 3],
+    /// A valid frame has been seen since construction or the last reset.
+    primed: bool,
+    /// New frames in a row that repeated `last`.
     repeats: u16,
 }
 
@@ -171,6 +175,8 @@ impl FreezeDetector {
     /// Passes `f` unless it is the `limit + 1`-th (or a later) new frame in a row to repeat
     /// the last valid feature bit for bit. Every frame is compared, a rejected one too, so a
     /// frozen stream stays rejected until its content changes.
+    ///
+    /// Bounded: three XORs and a compare (no `memcmp`: the step stays free of library loops).
     #[inline]
     pub fn observe(
         &mut self,
@@ -182,13 +188,15 @@ impl FreezeDetector {
             f.image_y.to_bits(),
             f.depth_m.to_bits(),
         ];
-        if self.last == Some(bits) {
+        let same = (bits[0] ^ self.last[0]) | (bits[1] ^ self.last[1]) | (bits[2] ^ self.last[2]);
+        if self.primed && same == 0 {
             self.repeats = self.repeats.saturating_add(1);
             if self.repeats > limit {
                 return Err(MeasurementError::Frozen);
             }
         } else {
-            self.last = Some(bits);
+            self.last = bits;
+            self.primed = true;
             self.repeats = 0;
         }
         Ok(f)

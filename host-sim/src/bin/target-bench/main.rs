@@ -35,9 +35,11 @@
 //! through `Controller::step`'s machine code in each ELF, callees included, the PBVS law
 //! excluded (the firmware flies IBVS); `step_instructions_bound`, `null` without objdump.
 //!
-//! `--check FILE` compares the step's maximum instructions, the control-path stack and the
-//! flash of each board with the expectations in FILE (`benchmarks/expected.json`) and exits
-//! with status 1 when one grew past its expectation plus the file's tolerance.
+//! `--check FILE` compares the step's maximum instructions, its static bound (which must
+//! exist: a loop, recursion or an indirect call in the step makes it `null` and fails the
+//! check), the control-path stack and the flash of each board with the expectations in FILE
+//! (`benchmarks/expected.json`) and exits with status 1 when one grew past its expectation
+//! plus the file's tolerance.
 
 mod elf;
 mod wcet;
@@ -453,6 +455,18 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
             "qemu",
             "step_instructions_max",
             &["step_instructions", "max"][..],
+        ),
+        // The static bound must exist (a loop, recursion or an indirect call in the step's
+        // code makes it `null`, and the check fails) and must not grow.
+        (
+            "qemu",
+            "step_instructions_bound",
+            &["step_instructions_bound"][..],
+        ),
+        (
+            "f405",
+            "step_instructions_bound",
+            &["step_instructions_bound"][..],
         ),
         ("qemu", "stack_bytes", &["stack_bytes"][..]),
         ("qemu", "flash_bytes", &["flash_bytes"][..]),
