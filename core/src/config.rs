@@ -262,6 +262,12 @@ impl ControllerConfig {
         )?;
         check("modes.overspeed_mps", md.overspeed_mps, true)?;
         check("modes.breakaway_accel_mps2", md.breakaway_accel_mps2, true)?;
+        check("modes.terminal_accel_mps2", md.terminal_accel_mps2, true)?;
+        check("modes.drogue_rate_filter", md.drogue_rate_filter, true)?;
+        require(
+            "modes.drogue_rate_filter (<= 1)",
+            md.drogue_rate_filter <= 1.0,
+        )?;
         require(
             "modes.overspeed_mps (> velocity_limits.max_closing_mps)",
             md.overspeed_mps > l.max_closing_mps,
@@ -339,6 +345,39 @@ mod tests {
             c.validate().map_err(|e| e.problem),
             Err(ConfigProblem::Inconsistent)
         );
+        let mut c = ControllerConfig::default();
+        c.modes.terminal_accel_mps2 = 0.0;
+        assert_eq!(
+            c.validate(),
+            Err(ConfigError {
+                field: "modes.terminal_accel_mps2",
+                problem: ConfigProblem::NotPositive
+            })
+        );
+        let mut c = ControllerConfig::default();
+        c.modes.drogue_rate_filter = f32::INFINITY;
+        assert_eq!(
+            c.validate(),
+            Err(ConfigError {
+                field: "modes.drogue_rate_filter",
+                problem: ConfigProblem::NotFinite
+            })
+        );
+        c.modes.drogue_rate_filter = 0.0;
+        assert_eq!(
+            c.validate().map_err(|e| e.problem),
+            Err(ConfigProblem::NotPositive)
+        );
+        c.modes.drogue_rate_filter = 1.5;
+        assert_eq!(
+            c.validate(),
+            Err(ConfigError {
+                field: "modes.drogue_rate_filter (<= 1)",
+                problem: ConfigProblem::Inconsistent
+            })
+        );
+        c.modes.drogue_rate_filter = 1.0;
+        assert_eq!(c.validate(), Ok(()));
         let mut c = ControllerConfig::default();
         c.modes.breakaway_down_mps = -1.0;
         assert_eq!(

@@ -11,6 +11,11 @@
 //!   without valid navigation flies open loop: trim surfaces, throttle cut;
 //! - every rejection is counted in [`Counters`] and reported in the step's output.
 //!
+//! In the blind phase (terminal) the camera is not used: the desired velocity slews at
+//! `modes.terminal_accel_mps2` to the aim fixed at entry (`offset × a / depth` plus the
+//! drogue's estimated velocity, closing at `a`; [`crate::mode`]); in breakaway at
+//! `modes.breakaway_accel_mps2`; otherwise at `velocity_limits.max_accel_mps2`.
+//!
 //! Invariants: `step` never panics and returns finite commands inside the actuator limits
 //! for every input (property-tested in `tests/properties.rs`).
 
@@ -185,6 +190,8 @@ struct Derived {
     slew_step_mps: f32,
     /// The same in breakaway, m/s.
     breakaway_slew_step_mps: f32,
+    /// The same in the blind phase, m/s.
+    terminal_slew_step_mps: f32,
     /// Throttle of an open-loop breakaway (trim minus the cut).
     open_loop_throttle: f32,
 }
@@ -201,9 +208,10 @@ impl Derived {
                 .ok_or_else(|| inconsistent("nav_envelope"))?,
             measurement: LimitBits::new(&cfg.measurement)
                 .ok_or_else(|| inconsistent("measurement"))?,
-            modes: ModeLimits::new(&cfg.modes, Controller::PERIOD_S),
+            modes: ModeLimits::new(&cfg.modes, &cfg.velocity_limits, Controller::PERIOD_S),
             slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
             breakaway_slew_step_mps: cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S,
+            terminal_slew_step_mps: cfg.modes.terminal_accel_mps2 * Controller::PERIOD_S,
             open_loop_throttle: trim_command()[1] - cfg.modes.breakaway_throttle_cut,
         })
     }
@@ -321,17 +329,12 @@ impl Controller {
     /// slewing.
     #[inline(always)]
     fn mode_velocity(&self) -> VelocityRe {
-        let (lim, md) = (&self.cfg.velocity_limits, &self.cfg.modes);
+        let md = &self.cfg.modes;
         match self.modes.mode() {
             Mode::Standby | Mode::Docked => VelocityRe::ZERO,
             Mode::Approach => self.last_outer.v_des,
-            Mode::Terminal => {
-                let held = self.modes.terminal().held;
-                VelocityRe {
-                    z_fwd_mps: lim.min_closing_mps,
-                    ..held
-                }
-            }
+            // Fixed at entry: aimed at the drogue, closing at the minimum speed.
+            Mode::Terminal => self.modes.terminal().aim,
             Mode::Breakaway => VelocityRe {
                 x_right_mps: 0.0,
                 y_down_mps: md.breakaway_down_mps,
@@ -426,10 +429,10 @@ impl Controller {
             outer::slew(
                 &self.v_cmd,
                 &self.mode_velocity(),
-                if mode == Mode::Breakaway {
-                    self.derived.breakaway_slew_step_mps
-                } else {
-                    self.derived.slew_step_mps
+                match mode {
+                    Mode::Breakaway => self.derived.breakaway_slew_step_mps,
+                    Mode::Terminal => self.derived.terminal_slew_step_mps,
+                    _ => self.derived.slew_step_mps,
                 },
             )
         };

@@ -20,13 +20,22 @@
 //!
 //! Breakaway is latched: only `Reset` leaves it.
 //!
+//! Behaviour in the blind phase (not a transition): at terminal entry the lateral and
+//! vertical command is fixed to aim at the drogue: `offset × a / depth` (the offset closed
+//! in the time the blind phase takes at the closing speed `a`) plus the drogue's estimated
+//! velocity (the low-pass filtered rate of the target's offset over the approach's valid
+//! frames plus the receiver's own tracked command), saturated to the velocity limits; the
+//! closing speed is `a`. The paper holds the last commands instead (paper-notes item 7; we
+//! deviate, `docs/conventions.md`, "Modes").
+//!
 //! Invariant: the machine only changes mode through [`ModeMachine::update`], and every
 //! breakaway carries its reason.
 
 use serde::{Deserialize, Serialize};
 
 use crate::frames::{TargetEstimate, VelocityRe};
-use crate::num::HypotLimit;
+use crate::num::{HypotLimit, clamp_sym};
+use crate::outer::VelocityLimits;
 
 /// Controller mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -37,8 +46,8 @@ pub enum Mode {
     Standby,
     /// Visual tracking: the outer loop closes on the drogue.
     Approach,
-    /// Blind final phase: lateral and vertical commands held, closing at the minimum speed,
-    /// depth dead-reckoned.
+    /// Blind final phase: lateral and vertical commands fixed at entry to aim at the drogue,
+    /// closing at the minimum speed, depth dead-reckoned.
     Terminal,
     /// Probe contact: hold position relative to the tanker.
     Docked,
@@ -91,6 +100,9 @@ pub struct ModeConfig {
     /// Depth at which the camera is considered blind and the terminal phase starts, m.
     pub terminal_depth_m: f32,
     /// Largest radial offset of the drogue at terminal entry that can still be captured, m.
+    /// Default 0.45 m, above the 0.3 m capture radius: the blind phase aims at the drogue and
+    /// closes the offset (was 0.3 m while it held the commands; with the 1,000-run campaigns,
+    /// `docs/conventions.md`, "Modes").
     pub terminal_max_offset_m: f32,
     /// Dead-reckoned depth below minus this value means the probe has passed the drogue, m.
     pub terminal_overshoot_m: f32,
@@ -117,13 +129,26 @@ pub struct ModeConfig {
     /// is `velocity_limits.max_accel_mps2`). A breakaway is the manoeuvre that must not be
     /// gentle: at the approach's 0.5 m/s² the descent takes 2 s to build up.
     pub breakaway_accel_mps2: f32,
+    /// Blind phase: largest change of the desired velocity, m/s², each axis (the approach's
+    /// is `velocity_limits.max_accel_mps2`). Default 2.0 m/s², as the breakaway's: the
+    /// aiming command must be reached early in a blind phase of about 0.9 s (0.7 m at
+    /// 0.8 m/s); at 0.5 m/s² a 0.3 m/s change takes 0.6 s. Chosen with the 1,000-run
+    /// campaigns (`docs/scenarios.md`, "Monte Carlo campaigns").
+    pub terminal_accel_mps2: f32,
+    /// Coefficient of the first-order low-pass filter of the target offset's rate (the
+    /// drogue's motion relative to the camera), applied once per valid frame in approach:
+    /// `rate += k (raw - rate)`, `raw` the offset's change since the last valid frame over
+    /// the time since it. Dimensionless, in (0, 1]; default 0.2 (a time constant of about
+    /// 5 frames, 0.1 s at 50 Hz: smooths the pixel noise's differences, follows the
+    /// drogue's swing of about 1 Hz). Chosen with the 1,000-run campaigns.
+    pub drogue_rate_filter: f32,
 }
 
 impl Default for ModeConfig {
     fn default() -> Self {
         Self {
             terminal_depth_m: 0.7,
-            terminal_max_offset_m: 0.3,
+            terminal_max_offset_m: 0.45,
             terminal_overshoot_m: 0.5,
             terminal_timeout_s: 5.0,
             hold_limit_steps: 25,
@@ -132,6 +157,8 @@ impl Default for ModeConfig {
             breakaway_throttle_cut: 0.05,
             overspeed_mps: 2.3,
             breakaway_accel_mps2: 2.0,
+            terminal_accel_mps2: 2.0,
+            drogue_rate_filter: 0.2,
         }
     }
 }
@@ -149,16 +176,17 @@ pub struct ModeInputs {
     pub probe_contact: bool,
     /// Camera forward speed relative to the tanker from navigation, m/s.
     pub camera_fwd_mps: f32,
-    /// The desired velocity the inner loops were tracking (slewed), whose lateral and
-    /// vertical parts are held when entering the blind phase.
+    /// The desired velocity the inner loops were tracking (slewed): the receiver's own
+    /// motion relative to the drogue's estimate at terminal entry.
     pub v_des: VelocityRe,
 }
 
 /// State of the blind phase.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerminalState {
-    /// Lateral and vertical commands held from the last visual step.
-    pub held: VelocityRe,
+    /// The desired velocity of the blind phase, fixed at entry: lateral and vertical aim at
+    /// the drogue (`offset × a / depth` plus its estimated velocity, saturated), forward `a`.
+    pub aim: VelocityRe,
     /// Dead-reckoned depth to the drogue plane, m.
     pub depth_m: f32,
     /// Steps spent in the blind phase.
@@ -171,22 +199,107 @@ fn timeout_steps(cfg: &ModeConfig, ts_s: f32) -> u32 {
     libm::roundf(cfg.terminal_timeout_s / ts_s) as u32
 }
 
-/// What the transitions need from a [`ModeConfig`] and the step period, derived once: the
-/// blind-phase limit in steps and the terminal-entry offset check (`libm::hypotf` of the
-/// target's offset against `terminal_max_offset_m`, as [`HypotLimit`] answers it).
+/// What the transitions need from a [`ModeConfig`], the velocity limits and the step period,
+/// derived once: the blind-phase limit in steps, the terminal-entry offset check
+/// (`libm::hypotf` of the target's offset against `terminal_max_offset_m`, as [`HypotLimit`]
+/// answers it), and what the drogue-rate filter and the aiming command need.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModeLimits {
     timeout_steps: u32,
     max_offset: HypotLimit,
+    /// Closing speed of the blind phase `a` (`min_closing_mps`), m/s.
+    closing_mps: f32,
+    /// Saturation of the aiming command (`max_lateral_mps`, `max_vertical_mps`), m/s.
+    max_right_down_mps: [f32; 2],
+    /// `1 / ts_s`, 1/s.
+    per_step_s: f32,
+    /// [`ModeConfig::drogue_rate_filter`].
+    rate_filter: f32,
 }
 
 impl ModeLimits {
-    /// Derives the limits of `cfg` at the period `ts_s`.
-    pub fn new(cfg: &ModeConfig, ts_s: f32) -> Self {
+    /// Derives the limits of `cfg` and `vel` at the period `ts_s`.
+    pub fn new(cfg: &ModeConfig, vel: &VelocityLimits, ts_s: f32) -> Self {
         Self {
             timeout_steps: timeout_steps(cfg, ts_s),
             max_offset: HypotLimit::new(cfg.terminal_max_offset_m),
+            closing_mps: vel.min_closing_mps,
+            max_right_down_mps: [vel.max_lateral_mps, vel.max_vertical_mps],
+            per_step_s: 1.0 / ts_s,
+            rate_filter: cfg.drogue_rate_filter,
         }
+    }
+}
+
+/// Low-pass estimate of the rate of the target's offset (right, down) over the approach's
+/// valid frames: the drogue's velocity relative to the camera.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OffsetRate {
+    /// Offset of the last valid frame, m.
+    last_m: [f32; 2],
+    /// The filtered rate, m/s.
+    rate_mps: [f32; 2],
+}
+
+impl OffsetRate {
+    /// Starts from the frame `t` at rest.
+    fn start(t: &TargetEstimate) -> Self {
+        Self {
+            last_m: [t.right_m, t.down_m],
+            rate_mps: [0.0; 2],
+        }
+    }
+
+    /// Takes the valid frame `t`, `missed` invalid steps after the last valid one: the raw
+    /// rate is the change over `missed + 1` steps. Two multiply-adds per axis; the one
+    /// division only after invalid steps.
+    #[inline(always)]
+    fn observe(&mut self, t: &TargetEstimate, missed: u16, lim: &ModeLimits) {
+        let per_s = if missed == 0 {
+            lim.per_step_s
+        } else {
+            lim.per_step_s / (f32::from(missed) + 1.0)
+        };
+        let k = lim.rate_filter;
+        let now = [t.right_m, t.down_m];
+        let [r0, r1] = self.rate_mps;
+        let [l0, l1] = self.last_m;
+        self.rate_mps = [
+            r0 + k * ((now[0] - l0) * per_s - r0),
+            r1 + k * ((now[1] - l1) * per_s - r1),
+        ];
+        self.last_m = now;
+    }
+
+    /// The filtered rate `[right, down]`, m/s.
+    pub fn rate_mps(&self) -> [f32; 2] {
+        self.rate_mps
+    }
+}
+
+/// The blind phase's desired velocity for the target `t` at entry: lateral and vertical
+/// `offset × a / depth + drogue velocity` (the drogue's velocity: the offset's filtered rate
+/// plus the receiver's tracked command `v_des`), each saturated to its velocity limit;
+/// forward `a`. A valid target's depth is positive; a non-positive one aims at the drogue's
+/// velocity alone. Never panics; finite for finite inputs (saturated, NaN to the limit).
+#[inline]
+pub fn terminal_aim(
+    t: &TargetEstimate,
+    rate_mps: [f32; 2],
+    v_des: &VelocityRe,
+    lim: &ModeLimits,
+) -> VelocityRe {
+    let a = lim.closing_mps;
+    // 1 / (blind-phase duration): the one division, once per blind phase.
+    let per_s = if t.depth_m > 0.0 { a / t.depth_m } else { 0.0 };
+    let [max_right, max_down] = lim.max_right_down_mps;
+    VelocityRe {
+        x_right_mps: clamp_sym(
+            t.right_m * per_s + rate_mps[0] + v_des.x_right_mps,
+            max_right,
+        ),
+        y_down_mps: clamp_sym(t.down_m * per_s + rate_mps[1] + v_des.y_down_mps, max_down),
+        z_fwd_mps: a,
     }
 }
 
@@ -198,6 +311,7 @@ pub struct ModeMachine {
     meas_invalid_steps: u16,
     nav_invalid_steps: u16,
     terminal: TerminalState,
+    drogue_rate: OffsetRate,
 }
 
 impl ModeMachine {
@@ -214,6 +328,11 @@ impl ModeMachine {
     /// The blind-phase state (meaningful in [`Mode::Terminal`]).
     pub fn terminal(&self) -> &TerminalState {
         &self.terminal
+    }
+
+    /// The drogue-rate estimate (updated in approach, on valid frames).
+    pub fn drogue_rate(&self) -> &OffsetRate {
+        &self.drogue_rate
     }
 
     /// True when the last valid measurement is being held this step.
@@ -234,12 +353,20 @@ impl ModeMachine {
 
     /// Advances the machine by one step of `ts_s` seconds. Returns true when `Engage` was
     /// requested in standby but refused (no valid measurement or navigation).
-    pub fn update(&mut self, inp: &ModeInputs, cfg: &ModeConfig, ts_s: f32) -> bool {
-        self.advance(inp, cfg, ts_s, &ModeLimits::new(cfg, ts_s))
+    /// `vel`: the velocity limits (the blind phase's closing speed and the saturation of its
+    /// aiming command).
+    pub fn update(
+        &mut self,
+        inp: &ModeInputs,
+        cfg: &ModeConfig,
+        vel: &VelocityLimits,
+        ts_s: f32,
+    ) -> bool {
+        self.advance(inp, cfg, ts_s, &ModeLimits::new(cfg, vel, ts_s))
     }
 
     /// [`ModeMachine::update`] with the limits derived beforehand (`ModeLimits::new(cfg,
-    /// ts_s)`: the controller derives them at construction).
+    /// vel, ts_s)`: the controller derives them at construction).
     #[inline]
     pub fn advance(
         &mut self,
@@ -275,10 +402,12 @@ impl ModeMachine {
         match self.mode {
             Mode::Standby => {
                 if inp.request == ModeRequest::Engage {
-                    if inp.target.is_some() && inp.nav_valid {
-                        self.enter(Mode::Approach);
-                    } else {
-                        return true;
+                    match inp.target {
+                        Some(t) if inp.nav_valid => {
+                            self.enter(Mode::Approach);
+                            self.drogue_rate = OffsetRate::start(&t);
+                        }
+                        _ => return true,
                     }
                 }
             }
@@ -290,6 +419,8 @@ impl ModeMachine {
                     }
                 }
                 Some(t) => {
+                    self.drogue_rate
+                        .observe(&t, self.meas_invalid_steps, limits);
                     self.meas_invalid_steps = 0;
                     if t.depth_m <= cfg.terminal_depth_m {
                         // t.radial_offset_m() > cfg.terminal_max_offset_m, exactly.
@@ -298,7 +429,12 @@ impl ModeMachine {
                         } else {
                             self.enter(Mode::Terminal);
                             self.terminal = TerminalState {
-                                held: inp.v_des,
+                                aim: terminal_aim(
+                                    &t,
+                                    self.drogue_rate.rate_mps,
+                                    &inp.v_des,
+                                    limits,
+                                ),
                                 depth_m: t.depth_m,
                                 steps: 0,
                             };
@@ -331,11 +467,17 @@ impl ModeMachine {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+
     use super::*;
 
     const TS: f32 = 0.02;
     /// A depth just inside the default terminal threshold (0.7 m), m.
     const NEAR_M: f32 = 0.6;
+
+    fn vel() -> VelocityLimits {
+        crate::ControllerConfig::default().velocity_limits
+    }
 
     fn inputs() -> ModeInputs {
         ModeInputs {
@@ -364,6 +506,7 @@ mod tests {
                 ..inputs()
             },
             &ModeConfig::default(),
+            &vel(),
             TS
         ));
         assert_eq!(m.mode(), Mode::Approach);
@@ -383,7 +526,7 @@ mod tests {
 
     fn terminal() -> ModeMachine {
         let mut m = engaged();
-        m.update(&near(0.05), &ModeConfig::default(), TS);
+        m.update(&near(0.05), &ModeConfig::default(), &vel(), TS);
         assert_eq!(m.mode(), Mode::Terminal);
         m
     }
@@ -399,6 +542,7 @@ mod tests {
                 ..inputs()
             },
             &cfg,
+            &vel(),
             TS
         ));
         assert!(m.update(
@@ -408,11 +552,12 @@ mod tests {
                 ..inputs()
             },
             &cfg,
+            &vel(),
             TS
         ));
         assert_eq!(m.mode(), Mode::Standby);
         assert!(
-            !m.update(&inputs(), &cfg, TS),
+            !m.update(&inputs(), &cfg, &vel(), TS),
             "no request, nothing refused"
         );
         assert_eq!(m.mode(), Mode::Standby);
@@ -427,11 +572,11 @@ mod tests {
             ..inputs()
         };
         for _ in 0..cfg.hold_limit_steps {
-            m.update(&lost, &cfg, TS);
+            m.update(&lost, &cfg, &vel(), TS);
             assert_eq!(m.mode(), Mode::Approach);
             assert!(m.holding_measurement());
         }
-        m.update(&lost, &cfg, TS);
+        m.update(&lost, &cfg, &vel(), TS);
         assert_eq!(m.mode(), Mode::Breakaway);
         assert_eq!(m.breakaway_reason(), Some(BreakawayReason::MeasurementLost));
     }
@@ -446,9 +591,9 @@ mod tests {
         };
         for _ in 0..2 {
             for _ in 0..cfg.hold_limit_steps {
-                m.update(&lost, &cfg, TS);
+                m.update(&lost, &cfg, &vel(), TS);
             }
-            m.update(&inputs(), &cfg, TS);
+            m.update(&inputs(), &cfg, &vel(), TS);
             assert!(!m.holding_measurement());
         }
         assert_eq!(m.mode(), Mode::Approach);
@@ -464,6 +609,7 @@ mod tests {
                     ..inp
                 },
                 &cfg,
+                &vel(),
                 TS,
             );
             m.mode()
@@ -500,24 +646,169 @@ mod tests {
             ..inputs()
         };
         for _ in 0..cfg.hold_limit_steps {
-            m.update(&bad, &cfg, TS);
+            m.update(&bad, &cfg, &vel(), TS);
         }
         assert_eq!(m.mode(), Mode::Approach);
-        m.update(&bad, &cfg, TS);
+        m.update(&bad, &cfg, &vel(), TS);
         assert_eq!(m.breakaway_reason(), Some(BreakawayReason::NavLost));
     }
 
+    /// Engages on `first` with the tracked command `v_des`, then feeds `frames` (None:
+    /// invalid) in approach; returns the machine.
+    fn fly(
+        first: TargetEstimate,
+        v_des: VelocityRe,
+        frames: &[Option<TargetEstimate>],
+    ) -> ModeMachine {
+        let cfg = ModeConfig::default();
+        let mut m = ModeMachine::default();
+        let base = ModeInputs {
+            target: Some(first),
+            v_des,
+            ..inputs()
+        };
+        m.update(
+            &ModeInputs {
+                request: ModeRequest::Engage,
+                ..base
+            },
+            &cfg,
+            &vel(),
+            TS,
+        );
+        for f in frames {
+            m.update(&ModeInputs { target: *f, ..base }, &cfg, &vel(), TS);
+        }
+        m
+    }
+
+    fn at(right_m: f32, down_m: f32, depth_m: f32) -> TargetEstimate {
+        TargetEstimate {
+            right_m,
+            down_m,
+            depth_m,
+        }
+    }
+
     #[test]
-    fn terminal_entry_holds_the_commands_or_predicts_a_miss() {
-        let m = terminal();
-        assert_eq!(m.terminal().held, inputs().v_des);
-        assert_eq!(m.terminal().depth_m, NEAR_M);
+    fn terminal_entry_aims_at_a_stationary_drogue_or_predicts_a_miss() {
+        // Drogue at rest relative to the camera (rate 0), no command being tracked: the aim
+        // closes the offset in the blind phase's duration, depth / a.
+        let (right, down, depth) = (0.2, -0.1, 0.5);
+        let a = vel().min_closing_mps;
+        let first = at(right, down, 2.0);
+        let m = fly(first, VelocityRe::ZERO, &[Some(at(right, down, depth))]);
+        assert_eq!(m.mode(), Mode::Terminal);
+        assert_eq!(m.drogue_rate().rate_mps(), [0.0, 0.0]);
+        let aim = m.terminal().aim;
+        assert_eq!(aim.x_right_mps, right * (a / depth));
+        assert_eq!(aim.y_down_mps, down * (a / depth));
+        assert!((aim.x_right_mps - 0.32).abs() < 1e-6 && (aim.y_down_mps + 0.16).abs() < 1e-6);
+        assert_eq!(aim.z_fwd_mps, a);
+        assert_eq!(m.terminal().depth_m, depth);
+        // On the limit (0.45 m) still enters; just outside it predicts a miss.
+        let cfg = ModeConfig::default();
+        assert_eq!(cfg.terminal_max_offset_m, 0.45);
+        let m = fly(first, VelocityRe::ZERO, &[Some(at(0.45, 0.0, NEAR_M))]);
+        assert_eq!(m.mode(), Mode::Terminal);
         let mut miss = engaged();
-        miss.update(&near(0.31), &ModeConfig::default(), TS);
+        miss.update(&near(0.46), &cfg, &vel(), TS);
         assert_eq!(
             miss.breakaway_reason(),
             Some(BreakawayReason::PredictedMiss)
         );
+    }
+
+    #[test]
+    fn terminal_entry_adds_the_drogues_estimated_velocity() {
+        // The offset grows 0.5 m/s to the right and 0.25 m/s up while the receiver tracks
+        // 0.1 m/s right and 0.2 m/s up: the drogue moves 0.6 m/s right, 0.45 m/s up.
+        let v_des = VelocityRe {
+            x_right_mps: 0.1,
+            y_down_mps: -0.2,
+            z_fwd_mps: 1.0,
+        };
+        let (r0, d0) = (0.0, 0.0);
+        let n = 10;
+        let frame = |k: i32, depth: f32| at(r0 + 0.01 * k as f32, d0 - 0.005 * k as f32, depth);
+        let frames: std::vec::Vec<_> = (1..=n)
+            .map(|k| Some(frame(k, if k == n { NEAR_M } else { 2.0 })))
+            .collect();
+        let m = fly(frame(0, 2.0), v_des, &frames);
+        assert_eq!(m.mode(), Mode::Terminal);
+        // First-order filter of a constant raw rate from zero: rate (1 - (1 - k)^n).
+        let gain = 1.0 - 0.8f32.powi(n);
+        let rate = m.drogue_rate().rate_mps();
+        assert!((rate[0] - 0.5 * gain).abs() < 1e-4, "{rate:?}");
+        assert!((rate[1] + 0.25 * gain).abs() < 1e-4, "{rate:?}");
+        let a = vel().min_closing_mps;
+        let t = frame(n, NEAR_M);
+        let aim = m.terminal().aim;
+        assert_eq!(aim.x_right_mps, t.right_m * (a / NEAR_M) + rate[0] + 0.1);
+        assert_eq!(aim.y_down_mps, t.down_m * (a / NEAR_M) + rate[1] - 0.2);
+        // Not the held command any more: 0.133 + 0.446 + 0.1 m/s right.
+        assert!((aim.x_right_mps - 0.679).abs() < 1e-3, "{aim:?}");
+    }
+
+    #[test]
+    fn the_aim_is_saturated_to_the_velocity_limits() {
+        let lim = vel();
+        // 0.3 m right and 0.3 m up of a 0.1 m deep drogue: 2.4 and -2.4 m/s before the limits.
+        let m = fly(
+            at(0.3, -0.3, 2.0),
+            VelocityRe::ZERO,
+            &[Some(at(0.3, -0.3, 0.1))],
+        );
+        assert_eq!(m.mode(), Mode::Terminal);
+        let aim = m.terminal().aim;
+        assert_eq!(aim.x_right_mps, lim.max_lateral_mps);
+        assert_eq!(aim.y_down_mps, -lim.max_vertical_mps);
+        // And through the drogue's velocity: a fast-moving offset plus the tracked command.
+        let v_des = VelocityRe {
+            x_right_mps: -1.9,
+            y_down_mps: 1.9,
+            z_fwd_mps: 1.0,
+        };
+        let m = fly(at(0.0, 0.0, 2.0), v_des, &[Some(at(-0.2, 0.2, NEAR_M))]);
+        let aim = m.terminal().aim;
+        assert_eq!(aim.x_right_mps, -lim.max_lateral_mps);
+        assert_eq!(aim.y_down_mps, lim.max_vertical_mps);
+        // A non-positive depth (never valid) aims at the drogue's velocity alone.
+        let t = at(0.1, 0.1, 0.0);
+        let aim = terminal_aim(
+            &t,
+            [0.3, -0.2],
+            &VelocityRe::ZERO,
+            &ModeLimits::new(&ModeConfig::default(), &lim, TS),
+        );
+        assert_eq!((aim.x_right_mps, aim.y_down_mps), (0.3, -0.2));
+    }
+
+    #[test]
+    fn the_rate_filter_holds_over_invalid_frames_and_scales_by_the_steps_since_the_last() {
+        // One valid frame 0.01 m right: rate 0.2 × 0.5 m/s.
+        let first = at(0.0, 0.0, 3.0);
+        let m = fly(first, VelocityRe::ZERO, &[Some(at(0.01, 0.0, 3.0))]);
+        let r1 = m.drogue_rate().rate_mps();
+        assert!((r1[0] - 0.1).abs() < 1e-6 && r1[1] == 0.0, "{r1:?}");
+        // Then 4 invalid frames: the estimate is held.
+        let mut frames = std::vec![Some(at(0.01, 0.0, 3.0))];
+        frames.extend([None; 4]);
+        let m = fly(first, VelocityRe::ZERO, &frames);
+        assert_eq!(m.drogue_rate().rate_mps(), r1);
+        assert!(m.holding_measurement());
+        // A valid frame 0.05 m further right, 5 steps after the last: raw 0.05 / 0.1 s =
+        // 0.5 m/s (not 0.05 / 0.02 s = 2.5 m/s), filtered: 0.1 + 0.2 (0.5 - 0.1) = 0.18.
+        frames.push(Some(at(0.06, 0.0, 3.0)));
+        let m = fly(first, VelocityRe::ZERO, &frames);
+        let r = m.drogue_rate().rate_mps();
+        assert!((r[0] - 0.18).abs() < 1e-5, "{r:?}");
+        assert_eq!(m.mode(), Mode::Approach);
+        // Every consecutive valid frame is one step apart again.
+        frames.push(Some(at(0.07, 0.0, 3.0)));
+        let m = fly(first, VelocityRe::ZERO, &frames);
+        let r = m.drogue_rate().rate_mps();
+        assert!((r[0] - (0.18 + 0.2 * (0.5 - 0.18))).abs() < 1e-4, "{r:?}");
     }
 
     #[test]
@@ -530,6 +821,7 @@ mod tests {
                 ..inputs()
             },
             &ModeConfig::default(),
+            &vel(),
             TS,
         );
         assert_eq!(m.mode(), Mode::Docked);
@@ -546,10 +838,10 @@ mod tests {
             ..inputs()
         };
         for _ in 0..68 {
-            m.update(&blind, &cfg, TS);
+            m.update(&blind, &cfg, &vel(), TS);
             assert_eq!(m.mode(), Mode::Terminal, "depth {}", m.terminal().depth_m);
         }
-        m.update(&blind, &cfg, TS);
+        m.update(&blind, &cfg, &vel(), TS);
         assert_eq!(
             m.breakaway_reason(),
             Some(BreakawayReason::PassedDroguePlane)
@@ -567,10 +859,10 @@ mod tests {
         };
         let steps = (cfg.terminal_timeout_s / TS) as usize;
         for _ in 0..steps {
-            m.update(&stalled, &cfg, TS);
+            m.update(&stalled, &cfg, &vel(), TS);
         }
         assert_eq!(m.mode(), Mode::Terminal);
-        m.update(&stalled, &cfg, TS);
+        m.update(&stalled, &cfg, &vel(), TS);
         assert_eq!(m.breakaway_reason(), Some(BreakawayReason::TerminalTimeout));
     }
 
@@ -584,6 +876,7 @@ mod tests {
                 ..inputs()
             },
             &cfg,
+            &vel(),
             TS,
         );
         m.update(
@@ -592,10 +885,11 @@ mod tests {
                 ..inputs()
             },
             &cfg,
+            &vel(),
             TS,
         );
         assert_eq!(m.mode(), Mode::Docked);
-        m.update(&inputs(), &cfg, TS);
+        m.update(&inputs(), &cfg, &vel(), TS);
         assert_eq!(m.breakaway_reason(), Some(BreakawayReason::ContactLost));
     }
 
@@ -607,7 +901,7 @@ mod tests {
             ..inputs()
         };
         for mut m in [engaged(), terminal()] {
-            m.update(&abort, &cfg, TS);
+            m.update(&abort, &cfg, &vel(), TS);
             assert_eq!(m.breakaway_reason(), Some(BreakawayReason::Abort));
             for req in [ModeRequest::None, ModeRequest::Engage, ModeRequest::Abort] {
                 m.update(
@@ -617,6 +911,7 @@ mod tests {
                         ..near(0.0)
                     },
                     &cfg,
+                    &vel(),
                     TS,
                 );
                 assert_eq!(m.mode(), Mode::Breakaway);
@@ -627,6 +922,7 @@ mod tests {
                     ..inputs()
                 },
                 &cfg,
+                &vel(),
                 TS,
             );
             assert_eq!(m.mode(), Mode::Standby);
@@ -643,6 +939,7 @@ mod tests {
                 ..inputs()
             },
             &ModeConfig::default(),
+            &vel(),
             TS,
         );
         assert_eq!(m.mode(), Mode::Standby);

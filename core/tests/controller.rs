@@ -11,7 +11,7 @@
 
 use ibvs_core::config::ConfigProblem;
 use ibvs_core::controller::StatusFlags;
-use ibvs_core::frames::VelocityRe;
+use ibvs_core::frames::{TargetEstimate, VelocityRe};
 use ibvs_core::gains::TRIM;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{NavError, NavSample};
@@ -628,22 +628,86 @@ fn at_terminal_depth(cfg: &ControllerConfig, offset_m: f32) -> Seen {
     }
 }
 
+/// Largest change of the desired velocity per step in the blind phase, each axis.
+fn terminal_slew_step(cfg: &ControllerConfig) -> f32 {
+    cfg.modes.terminal_accel_mps2 * Controller::PERIOD_S
+}
+
+/// An independent model of the drogue-velocity estimate of the approach (`docs/conventions.md`,
+/// "Modes"): first-order filter of the target offset's change per step, every frame valid.
+struct RateModel {
+    last: [f32; 2],
+    rate: [f32; 2],
+}
+
+impl RateModel {
+    fn observe(&mut self, cfg: &ControllerConfig, t: &TargetEstimate) {
+        let now = [t.right_m, t.down_m];
+        for k in 0..2 {
+            let raw = (now[k] - self.last[k]) / Controller::PERIOD_S;
+            self.rate[k] += cfg.modes.drogue_rate_filter * (raw - self.rate[k]);
+        }
+        self.last = now;
+    }
+}
+
 #[test]
-fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
+fn terminal_is_entered_at_the_terminal_depth_and_aims_at_the_drogue() {
     let cfg = config();
-    let (mut rig, last) = approach_to_terminal_depth(cfg, NavSample::default());
-    let out = rig.step(at_terminal_depth(&cfg, 0.1));
+    // An approach on which the drogue drifts right and up in the image.
+    let start = Seen {
+        x: 0.02,
+        y: 0.01,
+        depth_m: 3.0,
+    };
+    let mut rig = Rig::new(cfg);
+    let out = rig.step_with(start, |i| i.request = ModeRequest::Engage);
+    assert_eq!(out.mode, Mode::Approach);
+    let mut model = RateModel {
+        last: [out.target.right_m, out.target.down_m],
+        rate: [0.0; 2],
+    };
+    let mut last = out;
+    for (k, depth) in [2.5, 2.0, 1.5, 1.2, cfg.modes.terminal_depth_m + 0.01]
+        .into_iter()
+        .enumerate()
+    {
+        last = rig.step(Seen {
+            x: 0.02 + 0.01 * k as f32,
+            y: 0.01 - 0.01 * k as f32,
+            depth_m: depth,
+        });
+        assert_eq!(last.mode, Mode::Approach, "depth {depth}");
+        model.observe(&cfg, &last.target);
+    }
+    let entry = at_terminal_depth(&cfg, 0.1);
+    let out = rig.step(entry);
     assert_eq!(out.mode, Mode::Terminal);
     assert_eq!(out.breakaway_reason, None);
+    model.observe(&cfg, &out.target);
+
+    // The aim: offset × a / depth plus the drogue's velocity (the offset's filtered rate plus
+    // the command the receiver was tracking), saturated; closing at the minimum speed.
+    let (a, lim) = (cfg.velocity_limits.min_closing_mps, cfg.velocity_limits);
+    let t = out.target;
+    let aim = VelocityRe {
+        x_right_mps: (t.right_m * a / t.depth_m + model.rate[0] + last.v_des.x_right_mps)
+            .clamp(-lim.max_lateral_mps, lim.max_lateral_mps),
+        y_down_mps: (t.down_m * a / t.depth_m + model.rate[1] + last.v_des.y_down_mps)
+            .clamp(-lim.max_vertical_mps, lim.max_vertical_mps),
+        z_fwd_mps: a,
+    };
+    assert!(
+        (aim.x_right_mps - last.v_des.x_right_mps).abs() > 0.1,
+        "the test must tell aiming from holding: {aim:?}, {:?}",
+        last.v_des
+    );
+    let step = terminal_slew_step(&cfg);
+    assert_slews_toward(&last.v_des, &out.v_des, &aim, step);
 
     // Blind: whatever the camera says (valid or not, for longer than the hold limit), the
-    // lateral and vertical commands stay those of the last visual step and the closing speed
-    // slews to the minimum.
+    // desired velocity slews (at the blind phase's rate) to the aim fixed at entry.
     let mut prev = out.v_des;
-    let target = VelocityRe {
-        z_fwd_mps: cfg.velocity_limits.min_closing_mps,
-        ..last.v_des
-    };
     for k in 0..2 * cfg.modes.hold_limit_steps {
         let seen = Seen {
             x: 0.5,
@@ -653,10 +717,11 @@ fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
         let out = rig.step_with(seen, |i| i.measurement.tracked = k % 2 == 0);
         assert_eq!(out.mode, Mode::Terminal, "step {k}");
         assert!(!has(&out, StatusFlags::MEASUREMENT_HELD));
-        assert_eq!(out.v_des.x_right_mps, last.v_des.x_right_mps);
-        assert_eq!(out.v_des.y_down_mps, last.v_des.y_down_mps);
-        assert_slews_toward(&prev, &out.v_des, &target, max_slew_step(&cfg));
+        assert_slews_toward(&prev, &out.v_des, &aim, step);
         prev = out.v_des;
+    }
+    for (got, want) in v_array(&prev).into_iter().zip(v_array(&aim)) {
+        assert!((got - want).abs() < 1e-5, "{prev:?} {aim:?}");
     }
 }
 
@@ -664,11 +729,20 @@ fn terminal_is_entered_at_the_terminal_depth_and_holds_the_lateral_commands() {
 fn a_large_offset_at_the_terminal_depth_predicts_a_miss() {
     let cfg = config();
     let (mut rig, _) = approach_to_terminal_depth(cfg, NavSample::default());
-    // 1.3 times the limit: still inside the field of view at the terminal depth.
-    let out = rig.step(at_terminal_depth(
-        &cfg,
-        1.3 * cfg.modes.terminal_max_offset_m,
-    ));
+    // 1.1 times the limit, diagonally (0.8 × 1.1 limit right, 0.6 × 1.1 limit up): still
+    // inside the field of view at the terminal depth.
+    let (r, z) = (
+        1.1 * cfg.modes.terminal_max_offset_m,
+        cfg.modes.terminal_depth_m,
+    );
+    let seen = Seen {
+        x: 0.8 * r / z,
+        y: -0.6 * r / z,
+        depth_m: z,
+    };
+    assert!(seen.x < cfg.measurement.half_fov_x && -seen.y < cfg.measurement.half_fov_y);
+    let out = rig.step(seen);
+    assert_eq!(out.measurement_error, None);
     assert_eq!(out.mode, Mode::Breakaway);
     assert_eq!(out.breakaway_reason, Some(BreakawayReason::PredictedMiss));
 }
@@ -721,9 +795,11 @@ fn contact_docks_and_losing_it_breaks_away_aft_and_down() {
         y_down_mps: cfg.modes.breakaway_down_mps,
         z_fwd_mps: -cfg.modes.breakaway_aft_mps,
     };
+    // The breakaway slews at its own, faster rate.
+    let away_step = cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S;
     let out = rig.step(MID);
     assert_eq!(out.breakaway_reason, Some(BreakawayReason::ContactLost));
-    assert_slews_toward(&prev, &out.v_des, &away, max_slew_step(&cfg));
+    assert_slews_toward(&prev, &out.v_des, &away, away_step);
     prev = out.v_des;
     for _ in 0..300 {
         // Latched: contact, engage and valid frames change nothing.
@@ -732,7 +808,7 @@ fn contact_docks_and_losing_it_breaks_away_aft_and_down() {
             i.request = ModeRequest::Engage;
         });
         assert_eq!(out.breakaway_reason, Some(BreakawayReason::ContactLost));
-        assert_slews_toward(&prev, &out.v_des, &away, max_slew_step(&cfg));
+        assert_slews_toward(&prev, &out.v_des, &away, away_step);
         prev = out.v_des;
     }
     for (got, want) in v_array(&prev).into_iter().zip(v_array(&away)) {
@@ -906,6 +982,17 @@ fn new_rejects_an_invalid_config_naming_the_field() {
     assert_eq!(
         rejection(|c| c.velocity_limits.max_accel_mps2 = -0.5),
         named("velocity_limits.max_accel_mps2", ConfigProblem::NotPositive)
+    );
+    assert_eq!(
+        rejection(|c| c.modes.terminal_accel_mps2 = f32::NAN),
+        named("modes.terminal_accel_mps2", ConfigProblem::NotFinite)
+    );
+    assert_eq!(
+        rejection(|c| c.modes.drogue_rate_filter = 2.0),
+        named(
+            "modes.drogue_rate_filter (<= 1)",
+            ConfigProblem::Inconsistent
+        )
     );
     assert_eq!(
         rejection(|c| c.modes.breakaway_aft_mps = -2.0),

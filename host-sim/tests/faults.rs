@@ -4,7 +4,7 @@
 //! checks. The link-level faults (corrupt, lost, late bytes through the firmware's serial link,
 //! link loss) are in `tests/link_faults.rs`.
 //!
-//! Without faults the calm run docks at 9.66 s (miss 0.023 m, 0.80 m/s); the control period
+//! Without faults the calm run docks at 9.67 s (miss 0.035 m, 0.80 m/s); the control period
 //! is 20 ms and the camera delivers one new frame per step, so a fault of `n` steps makes `n`
 //! invalid steps, and the hold limit is 25 steps (0.5 s): the 26th consecutive invalid step
 //! breaks away.
