@@ -228,7 +228,9 @@ fn approach_input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
             tracked: true,
             image_x: 0.1,
             image_y: -0.05,
-            depth_m: 6.0,
+            // A slowly closing drogue: every frame's content differs, as a working
+            // tracker's does (the core rejects a frozen one).
+            depth_m: 6.0 - 0.001 * (cam_seq % 1000) as f32,
         },
         nav: NavSample::default(),
         probe_contact: false,

@@ -9,8 +9,9 @@
 //! Method (`docs/benchmarks.md`):
 //! 1. Record: the in-process controller (default configuration, the one the firmware runs)
 //!    flies several docking scenarios in the simulator (calm air with the wake, hose and LED
-//!    camera; the ideal world; level II turbulence; the bow wave; 50 % frame loss; two runs
-//!    that break away), and every step's [`ControllerInput`] is kept. Two more input
+//!    camera; the ideal world; level II turbulence; the bow wave; 50 % frame loss; three runs
+//!    that break away: 80 % frame loss, a frozen tracker, a slow throttle (overspeed)), and
+//!    every step's [`ControllerInput`] is kept; each must end as named, or the run fails. Two more input
 //!    sequences are derived from recorded ones: the navigation lost mid-approach (hold, then
 //!    breakaway open loop) and a docking held then lost (docked, then breakaway).
 //! 2. Replay: each sequence goes through the `qemu` firmware in QEMU's emulated STM32F405
@@ -52,6 +53,7 @@ use clap::Parser;
 use host_sim::pil::{self, PilFlightComputer};
 use host_sim::scenario::{ScenarioFile, TABLE_1};
 use host_sim::sim::{self, FlightComputer, Scenario};
+use host_sim::world::faults::{Actuator, FaultKind, SimFault};
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::CostUnit;
 use ibvs_core::{Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode};
@@ -112,13 +114,17 @@ impl FlightComputer for Recorder {
 
 type Error = Box<dyn std::error::Error>;
 
-/// Flies `scenario` in-process with the default configuration; its inputs and outcome.
-fn record(scenario: &Scenario) -> Result<(Vec<ControllerInput>, String), Error> {
+/// Flies `scenario` in-process with the default configuration and `faults` injected; its
+/// inputs and outcome.
+fn record(
+    scenario: &Scenario,
+    faults: &[SimFault],
+) -> Result<(Vec<ControllerInput>, String), Error> {
     let mut rec = Recorder {
         controller: Controller::new(ControllerConfig::default())?,
         inputs: Vec::new(),
     };
-    let run = sim::run(scenario, &mut rec)?;
+    let run = sim::run_with_faults(scenario, &mut rec, faults)?;
     let s = &run.summary;
     let outcome = match (&s.breakaway_reason, s.miss_m) {
         (Some(r), _) => format!("{:?} ({r})", s.outcome),
@@ -149,47 +155,82 @@ fn preset(name: &str, seed: u64, edit: impl FnOnce(&mut ScenarioFile)) -> Result
 /// The workloads: recorded dockings and two derived input sequences.
 fn workloads() -> Result<Vec<Workload>, Error> {
     let mut out = Vec::new();
-    let flown: [(&'static str, &str, Scenario); 7] = [
+    // (name, what, scenario, faults, the outcome it must have: a workload that no longer
+    // takes the path it is named for fails the benchmark rather than measure something else).
+    let throttle_slow = SimFault::at_time(
+        FaultKind::ActuatorRateLimited {
+            actuator: Actuator::Throttle,
+            rate_per_s: 0.05,
+        },
+        0.0,
+        f64::INFINITY,
+    );
+    let frozen = SimFault::at_range(FaultKind::FrozenMeasurement, 3.0, f64::INFINITY);
+    let flown: [(&'static str, &str, Scenario, Vec<SimFault>, &str); 8] = [
         (
             "calm",
             "default scenario: calm air, tanker wake, hose and drogue, LED camera",
             Scenario::default(),
+            vec![],
+            "docked",
         ),
         (
             "ideal",
             "calm air, drogue at its trail, ideal camera",
             Scenario::ideal(),
+            vec![],
+            "docked",
         ),
         (
             "turbulence",
             "paper-level2 seed 1: level II turbulence (0.7 m/s)",
             preset("paper-level2", 1, |_| {})?,
+            vec![],
+            "docked",
         ),
         (
             "bow-wave",
             "paper-bow-wave seed 1 with Table 1 gains: bow wave, level I turbulence",
             preset("paper-bow-wave", 1, |_| {})?,
+            vec![],
+            "docked",
         ),
         (
             "image-loss",
             "paper-level1 seed 1, half of the camera frames lost",
             preset("paper-level1", 1, |f| f.camera.drop_probability = 0.5)?,
-        ),
-        (
-            "breakaway-miss",
-            "paper-level2 seed 8: passes the drogue plane 0.30 m off, breaks away",
-            preset("paper-level2", 8, |_| {})?,
+            vec![],
+            "docked",
         ),
         (
             "breakaway-image-lost",
             "paper-level1 seed 1, 80 % of the frames lost: measurement lost, breaks away",
             preset("paper-level1", 1, |f| f.camera.drop_probability = 0.8)?,
+            vec![],
+            "measurementlost",
+        ),
+        (
+            "breakaway-frozen",
+            "default scenario, the tracker frozen from 3 m: frozen frames held, breaks away",
+            Scenario::default(),
+            vec![frozen],
+            "measurementlost",
+        ),
+        (
+            "breakaway-overspeed",
+            "default scenario, throttle slewing at 5 %/s: closes too fast, breaks away",
+            Scenario::default(),
+            vec![throttle_slow],
+            "overspeed",
         ),
     ];
     let mut calm = Vec::new();
     let mut ideal = Vec::new();
-    for (name, what, scenario) in flown {
-        let (inputs, outcome) = record(&scenario)?;
+    for (name, what, scenario, faults, expected) in flown {
+        let (inputs, outcome) = record(&scenario, &faults)?;
+        if !outcome.contains(expected) {
+            return Err(format!("workload {name}: expected {expected}, flew {outcome}").into());
+        }
         match name {
             "calm" => calm.clone_from(&inputs),
             "ideal" => ideal.clone_from(&inputs),
