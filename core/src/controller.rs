@@ -144,12 +144,10 @@ impl Counters {
     }
 }
 
-/// Adds one to `c` (saturating) when `when`.
+/// Adds one to `c` (saturating) when `when`, without a branch.
 #[inline(always)]
 fn bump(c: &mut u32, when: bool) {
-    if when {
-        *c = c.saturating_add(1);
-    }
+    *c = c.saturating_add(u32::from(when));
 }
 
 /// Everything the controller produces in one step.
@@ -347,7 +345,8 @@ impl Controller {
     #[inline(always)]
     fn flag_and_count(&mut self, sat: &Saturation, flags: [bool; 6]) -> u16 {
         let [held, nav_held, lon_frozen, lat_frozen, refused, open_loop] = flags;
-        let bit = |on: bool, flag: u16| if on { flag } else { 0 };
+        // `flag` is a single bit: the product is a shift, no branch.
+        let bit = |on: bool, flag: u16| u16::from(on) * flag;
         let [s0, s1, s2, s3] = sat.side.map(|s| s != 0);
         let saturated = bit(s0, StatusFlags::SATURATED_ELEVATOR)
             | bit(s1, StatusFlags::SATURATED_THROTTLE)
