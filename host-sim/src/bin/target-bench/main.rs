@@ -40,7 +40,8 @@
 //! exist: a loop, recursion or an indirect call in the step makes it `null` and fails the
 //! check), the control-path stack and the flash of each board with the expectations in FILE
 //! (`benchmarks/expected.json`) and exits with status 1 when one grew past its expectation
-//! plus the file's tolerance.
+//! plus the file's tolerance, or when a figure exceeds its hard budget (the file's
+//! `budgets`: issue 5's flash, static RAM and stack targets).
 
 mod elf;
 mod wcet;
@@ -536,6 +537,28 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
             "check {board}.{metric}: measured {got}, expected {want} (+{tolerance} %): {verdict}"
         );
     }
+    // Hard budgets (issue 5's targets): a figure over its budget fails whatever its
+    // expectation says, so raising an expectation cannot hide it.
+    if let Some(budgets) = expected["budgets"].as_object() {
+        for (key, budget) in budgets {
+            let budget = budget
+                .as_f64()
+                .ok_or_else(|| format!("expectations: budgets.{key} is not a number"))?;
+            let (board, metric) = key
+                .split_once('.')
+                .ok_or_else(|| format!("expectations: budgets.{key}: want BOARD.METRIC"))?;
+            let got = report[board][metric]
+                .as_f64()
+                .ok_or_else(|| format!("measured: {key} missing"))?;
+            let verdict = if got > budget {
+                regressions.push(format!("{key}: {got} > budget {budget}"));
+                "OVER BUDGET"
+            } else {
+                "ok"
+            };
+            eprintln!("budget {key}: measured {got}, budget {budget}: {verdict}");
+        }
+    }
     Ok(regressions)
 }
 
@@ -664,5 +687,99 @@ fn main() -> ExitCode {
             eprintln!("target-bench: {e}");
             ExitCode::from(2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A report as `run` writes it, with the figures the gate reads.
+    fn report(step_max: u64, bound: Option<u64>, flash: u64) -> Value {
+        let board = |step: Value| {
+            json!({
+                "step_instructions": step,
+                "step_instructions_bound": bound,
+                "stack_bytes": 276,
+                "flash_bytes": flash,
+                "ram_bytes": 704,
+            })
+        };
+        json!({
+            "qemu": board(json!({"min": 1, "median": 2, "max": step_max})),
+            "f405": board(Value::Null),
+        })
+    }
+
+    fn expectations(flash_budget: u64) -> tempfile_path::TempPath {
+        tempfile_path::write(&json!({
+            "tolerance_percent": 2,
+            "qemu": {
+                "step_instructions_max": 800,
+                "step_instructions_bound": 1100,
+                "stack_bytes": 276,
+                "flash_bytes": 60000,
+            },
+            "f405": {"step_instructions_bound": 1100, "flash_bytes": 60000},
+            "budgets": {"qemu.flash_bytes": flash_budget, "f405.flash_bytes": flash_budget},
+        }))
+    }
+
+    /// A file in the system's temporary directory, removed when dropped.
+    mod tempfile_path {
+        use std::path::PathBuf;
+
+        pub struct TempPath(pub PathBuf);
+
+        impl Drop for TempPath {
+            fn drop(&mut self) {
+                let _ = std::fs::remove_file(&self.0);
+            }
+        }
+
+        pub fn write(v: &serde_json::Value) -> TempPath {
+            use std::sync::atomic::{AtomicU32, Ordering};
+            static N: AtomicU32 = AtomicU32::new(0);
+            let path = std::env::temp_dir().join(format!(
+                "target-bench-expected-{}-{}.json",
+                std::process::id(),
+                N.fetch_add(1, Ordering::Relaxed)
+            ));
+            std::fs::write(&path, v.to_string()).expect("writing the expectations");
+            TempPath(path)
+        }
+    }
+
+    #[test]
+    fn within_tolerance_and_budget_passes() {
+        let e = expectations(65536);
+        // 2 % over 800 is 816; 1122 is within 2 % of 1100.
+        let got = check(&report(816, Some(1122), 61200), &e.0).expect("check");
+        assert!(got.is_empty(), "{got:?}");
+    }
+
+    #[test]
+    fn growth_past_the_tolerance_is_a_regression() {
+        let e = expectations(65536);
+        let got = check(&report(817, Some(1100), 60000), &e.0).expect("check");
+        assert_eq!(got.len(), 1, "{got:?}");
+        assert!(got[0].starts_with("qemu.step_instructions_max"), "{got:?}");
+        let got = check(&report(800, Some(1123), 60000), &e.0).expect("check");
+        assert_eq!(got.len(), 2, "both boards' bounds: {got:?}");
+    }
+
+    #[test]
+    fn a_missing_static_bound_fails_the_check() {
+        let e = expectations(65536);
+        assert!(check(&report(800, None, 60000), &e.0).is_err());
+    }
+
+    #[test]
+    fn over_budget_fails_even_within_the_expectation() {
+        // Flash within 2 % of its expectation, but over the budget on both boards.
+        let e = expectations(61000);
+        let got = check(&report(800, Some(1100), 61100), &e.0).expect("check");
+        assert_eq!(got.len(), 2, "{got:?}");
+        assert!(got.iter().all(|r| r.contains("budget")), "{got:?}");
     }
 }
