@@ -22,24 +22,9 @@ use ibvs_core::measurement::{
 use ibvs_core::nav::NavSample;
 use ibvs_core::{Controller, ControllerConfig, ControllerInput, ModeRequest};
 use proptest::prelude::*;
-use proptest::test_runner::Config;
 
-fn cases(var: &str, default: u32) -> Config {
-    let n = std::env::var(var)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default);
-    Config {
-        cases: n,
-        failure_persistence: None,
-        ..Config::default()
-    }
-}
-
-/// Any `f32` bit pattern.
-fn bits() -> impl Strategy<Value = f32> {
-    any::<u32>().prop_map(f32::from_bits)
-}
+mod common;
+use common::{bits, cases};
 
 /// A field: an arbitrary bit pattern, a boundary value, or an ordinary value in `lo..=hi`.
 fn field(lo: f32, hi: f32) -> impl Strategy<Value = f32> {

@@ -33,26 +33,12 @@ use ibvs_core::{
     ModeRequest, OuterLaw,
 };
 use proptest::prelude::*;
-use proptest::test_runner::Config;
+
+mod common;
+use common::{bits, cases};
 
 /// Longest input sequence, steps (longer than the blind phase's 250-step limit).
 const MAX_STEPS: usize = 600;
-
-fn cases(var: &str, default: u32) -> Config {
-    let n = std::env::var(var)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(default);
-    Config {
-        cases: n,
-        failure_persistence: None,
-        ..Config::default()
-    }
-}
-
-fn bits() -> impl Strategy<Value = f32> {
-    any::<u32>().prop_map(f32::from_bits)
-}
 
 /// `(tracked, image_x, image_y, depth_m)`: plausible, near the drogue (terminal entries with
 /// small and large offsets), or arbitrary bits.

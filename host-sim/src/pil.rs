@@ -355,6 +355,12 @@ pub fn firmware_elf() -> Result<PathBuf, PilError> {
 
 /// Builds the `qemu` firmware into `target_dir`; returns the ELF.
 pub fn build_firmware(target_dir: &Path) -> Result<PathBuf, String> {
+    build_firmware_with(target_dir, &[])
+}
+
+/// Builds the firmware (release) into `target_dir` with the extra cargo arguments `args`
+/// (`["--no-default-features", "--features", "f405"]`: the `f405` board); returns the ELF.
+pub fn build_firmware_with(target_dir: &Path, args: &[&str]) -> Result<PathBuf, String> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let out = Command::new(cargo)
         .current_dir(workspace_root())
@@ -366,6 +372,7 @@ pub fn build_firmware(target_dir: &Path) -> Result<PathBuf, String> {
             "--target",
             FIRMWARE_TARGET,
         ])
+        .args(args)
         .arg("--target-dir")
         .arg(target_dir)
         // Host-side flags would replace the target's `-Tlink.x` from .cargo/config.toml.

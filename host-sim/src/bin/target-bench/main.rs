@@ -48,7 +48,7 @@ mod wcet;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode, Stdio};
+use std::process::ExitCode;
 
 use clap::Parser;
 use host_sim::pil::{self, PilFlightComputer};
@@ -433,40 +433,8 @@ fn workspace_root() -> PathBuf {
 /// Builds the `f405` board (release) into its own target directory; the ELF.
 fn build_f405() -> Result<PathBuf, Error> {
     let dir = target_dir().join("bench-firmware-f405");
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let out = Command::new(cargo)
-        .current_dir(workspace_root())
-        .args([
-            "build",
-            "-p",
-            "firmware",
-            "--release",
-            "--target",
-            pil::FIRMWARE_TARGET,
-        ])
-        .args([
-            "--no-default-features",
-            "--features",
-            "f405",
-            "--target-dir",
-        ])
-        .arg(&dir)
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_TARGET")
-        .stdin(Stdio::null())
-        .output()?;
-    if !out.status.success() {
-        return Err(format!(
-            "building the f405 firmware failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        )
-        .into());
-    }
-    Ok(dir
-        .join(pil::FIRMWARE_TARGET)
-        .join("release")
-        .join("firmware"))
+    pil::build_firmware_with(&dir, &["--no-default-features", "--features", "f405"])
+        .map_err(|e| format!("building the f405 firmware failed:\n{e}").into())
 }
 
 fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
