@@ -387,8 +387,8 @@ impl Controller {
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
-        let x_lon = self.last_nav.lon_design_array(self.engine.power_pct());
-        let x_lat = self.last_nav.lat_design_array();
+        let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
+        let x_lat = self.last_nav.lat_design_state();
 
         // 2. Measurement, 3. outer loop (its output is kept, i.e. held, until the next valid one).
         let feature = self.observe_measurement(&input.measurement);
@@ -458,16 +458,16 @@ impl Controller {
         let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
             let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
             let y_lat = self.lat.output(&x_lat);
-            let lon = self.lon.integrate_output(
+            let lon = self.lon.integrate(
                 &y_lon,
                 &[v_des.y_down_mps, v_des.z_fwd_mps],
                 &[s[0], s[1]],
                 ts,
                 lim,
             );
-            let lat =
-                self.lat
-                    .integrate_output(&y_lat, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
+            let lat = self
+                .lat
+                .integrate(&y_lat, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
             (lon, lat)
         } else {
             (false, false)

@@ -172,11 +172,6 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
     }
 
     /// Camera velocity relative to the tanker predicted from the design state, `C x`.
-    pub fn camera_velocity(&self, x: &SVector<f32, NX>) -> SVector<f32, NY> {
-        SVector::from(self.output(&(*x).into()))
-    }
-
-    /// `C x` on arrays (what the step uses).
     #[inline(always)]
     pub fn output(&self, x: &[f32; NX]) -> [f32; NY] {
         core::array::from_fn(|i| dot(&self.c[i], x))
@@ -192,12 +187,7 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
         self.q = SVector::zeros();
     }
 
-    /// The control law: absolute requested inputs for state `x` and the current integrators.
-    pub fn command(&self, x: &SVector<f32, NX>) -> [f32; NU] {
-        self.control(&(*x).into())
-    }
-
-    /// [`Channel::command`] on arrays (what the step uses):
+    /// The control law: absolute requested inputs for state `x` and the current integrators,
     /// `u_trim - (K_x x + K_q q)`.
     #[inline(always)]
     pub fn control(&self, x: &[f32; NX]) -> [f32; NU] {
@@ -205,25 +195,12 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
         core::array::from_fn(|i| self.u_trim[i] - (dot(&self.k_x[i], x) + dot(&self.k_q[i], &q)))
     }
 
-    /// Advances the integrators by one step given the tracking error and the saturation side
-    /// (`+1`, `-1`, `0`) of each input this step. Returns true when any integrator froze.
-    /// `limit_m` must not be NaN.
-    pub fn integrate(
-        &mut self,
-        x: &SVector<f32, NX>,
-        v_des: &SVector<f32, NY>,
-        sat_side: &[i8; NU],
-        ts_s: f32,
-        limit_m: f32,
-    ) -> bool {
-        let y = self.output(&(*x).into());
-        self.integrate_output(&y, &(*v_des).into(), sat_side, ts_s, limit_m)
-    }
-
-    /// [`Channel::integrate`] given the output `y = C x` already computed (what the step
-    /// uses: the mode logic needed it too).
+    /// Advances the integrators by one step given the output `y = C x` (computed once per step:
+    /// the mode logic needs it too), the desired velocity and the saturation side (`+1`, `-1`,
+    /// `0`) of each input this step. Returns true when any integrator froze. `limit_m` must
+    /// not be NaN.
     #[inline(always)]
-    pub fn integrate_output(
+    pub fn integrate(
         &mut self,
         y: &[f32; NY],
         v_des: &[f32; NY],
@@ -257,8 +234,8 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
 mod tests {
     use super::*;
 
-    fn v1(v: f32) -> SVector<f32, 1> {
-        SVector::<f32, 1>::from([v])
+    fn v1(v: f32) -> [f32; 1] {
+        [v]
     }
 
     #[test]
@@ -288,11 +265,11 @@ mod tests {
     fn law_and_integrator_follow_the_design_equations() {
         let mut ch = channel();
         let x = v1(0.2);
-        assert!((ch.command(&x)[0] - (0.1 - 2.0 * 0.2)).abs() < 1e-7);
-        ch.integrate(&x, &v1(1.0), &[0], 0.02, 10.0);
+        assert!((ch.control(&x)[0] - (0.1 - 2.0 * 0.2)).abs() < 1e-7);
+        ch.integrate(&ch.output(&x), &v1(1.0), &[0], 0.02, 10.0);
         assert!((ch.integrators()[0] - 0.02 * (0.2 - 1.0)).abs() < 1e-7);
         let q = ch.integrators()[0];
-        assert!((ch.command(&x)[0] - (0.1 - 2.0 * 0.2 - 0.5 * q)).abs() < 1e-7);
+        assert!((ch.control(&x)[0] - (0.1 - 2.0 * 0.2 - 0.5 * q)).abs() < 1e-7);
     }
 
     #[test]
@@ -300,10 +277,10 @@ mod tests {
         let mut ch = channel();
         let x = v1(0.0);
         // Error -1 per step: dq < 0, so u = -K_q q grows: deepens an upper limit.
-        assert!(ch.integrate(&x, &v1(1.0), &[1], 0.02, 10.0));
+        assert!(ch.integrate(&ch.output(&x), &v1(1.0), &[1], 0.02, 10.0));
         assert_eq!(ch.integrators()[0], 0.0);
         // The same update against a lower limit unwinds it: allowed.
-        assert!(!ch.integrate(&x, &v1(1.0), &[-1], 0.02, 10.0));
+        assert!(!ch.integrate(&ch.output(&x), &v1(1.0), &[-1], 0.02, 10.0));
         assert!(ch.integrators()[0] < 0.0);
     }
 
@@ -311,7 +288,7 @@ mod tests {
     fn integrators_are_clamped() {
         let mut ch = channel();
         for _ in 0..1000 {
-            ch.integrate(&v1(100.0), &v1(0.0), &[0], 0.02, 5.0);
+            ch.integrate(&ch.output(&v1(100.0)), &v1(0.0), &[0], 0.02, 5.0);
         }
         assert_eq!(ch.integrators()[0], 5.0);
     }

@@ -8,7 +8,6 @@
 //! Invariant: a sample that passes [`NavSample::validate`] is finite and inside the envelope
 //! where the linear design is meaningful ([`NavEnvelope`]).
 
-use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 
 /// Longitudinal perturbation states `[x, h, theta, V, alpha, q]` (paper eq. (1)).
@@ -244,20 +243,8 @@ impl NavSample {
     /// Longitudinal design state `[theta, V, alpha, q, P]` ([`crate::inner::LON_STATES`]).
     /// The engine power perturbation `P` is not navigation: it comes from the controller's
     /// engine model ([`crate::inner::EngineModel`]).
-    pub fn lon_design_state(&self, engine_power_pct: f32) -> SVector<f32, 5> {
-        let l = &self.lon;
-        SVector::<f32, 5>::new(
-            l.theta_rad,
-            l.v_mps,
-            l.alpha_rad,
-            l.q_radps,
-            engine_power_pct,
-        )
-    }
-
-    /// [`NavSample::lon_design_state`] as an array (what the step uses).
     #[inline(always)]
-    pub fn lon_design_array(&self, engine_power_pct: f32) -> [f32; 5] {
+    pub fn lon_design_state(&self, engine_power_pct: f32) -> [f32; 5] {
         let l = &self.lon;
         [
             l.theta_rad,
@@ -268,17 +255,11 @@ impl NavSample {
         ]
     }
 
-    /// [`NavSample::lat_design_state`] as an array (what the step uses).
+    /// Lateral design state `[psi, phi, beta, p, r]` ([`crate::inner::LAT_STATES`]).
     #[inline(always)]
-    pub fn lat_design_array(&self) -> [f32; 5] {
+    pub fn lat_design_state(&self) -> [f32; 5] {
         let l = &self.lat;
         [l.psi_rad, l.phi_rad, l.beta_rad, l.p_radps, l.r_radps]
-    }
-
-    /// Lateral design state `[psi, phi, beta, p, r]` ([`crate::inner::LAT_STATES`]).
-    pub fn lat_design_state(&self) -> SVector<f32, 5> {
-        let l = &self.lat;
-        SVector::<f32, 5>::from([l.psi_rad, l.phi_rad, l.beta_rad, l.p_radps, l.r_radps])
     }
 }
 
@@ -377,10 +358,7 @@ mod tests {
                 r_radps: 5.0,
             },
         };
-        assert_eq!(
-            s.lon_design_state(7.0).as_slice(),
-            &[1.0, 2.0, 3.0, 4.0, 7.0]
-        );
-        assert_eq!(s.lat_design_state().as_slice(), &[1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(s.lon_design_state(7.0), [1.0, 2.0, 3.0, 4.0, 7.0]);
+        assert_eq!(s.lat_design_state(), [1.0, 2.0, 3.0, 4.0, 5.0]);
     }
 }

@@ -312,13 +312,14 @@ pub struct PilStats {
 }
 
 /// Finds the workspace's target directory: `CARGO_TARGET_DIR` or `<workspace>/target`.
-fn target_dir() -> PathBuf {
+pub fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
-fn workspace_root() -> PathBuf {
+/// The workspace's root directory (the parent of this crate's).
+pub fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)

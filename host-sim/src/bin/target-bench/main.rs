@@ -419,20 +419,9 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
     Ok(r)
 }
 
-fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map_or_else(|| workspace_root().join("target"), PathBuf::from)
-}
-
-fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
-}
-
 /// Builds the `f405` board (release) into its own target directory; the ELF.
 fn build_f405() -> Result<PathBuf, Error> {
-    let dir = target_dir().join("bench-firmware-f405");
+    let dir = pil::target_dir().join("bench-firmware-f405");
     pil::build_firmware_with(&dir, &["--no-default-features", "--features", "f405"])
         .map_err(|e| format!("building the f405 firmware failed:\n{e}").into())
 }
