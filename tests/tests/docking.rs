@@ -1,4 +1,4 @@
-//! IBVS and PBVS fly the nonlinear F-16 into the drogue in calm air (issue 2's acceptance runs).
+//! IBVS and PBVS fly the nonlinear F-16 into the drogue in calm air (the calm-air acceptance runs).
 
 use hil_tests::{STARTS_M, dock, docking_failure};
 use ibvs_core::{ControllerConfig, OuterLaw};
