@@ -11,12 +11,14 @@
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::ActuatorLimits;
+use crate::estimator::EstimatorConfig;
 use crate::gains;
 use crate::kinematics::CameraMount;
 use crate::measurement::MeasurementLimits;
 use crate::mode::ModeConfig;
 use crate::nav::NavEnvelope;
 use crate::outer::{IbvsGains, PbvsGains, PbvsGeometry, VelocityLimits};
+use crate::procedure::{Procedure, RefuellingConfig};
 
 /// Which outer loop flies the approach.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -33,7 +35,9 @@ pub enum OuterLaw {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerConfig {
-    /// Outer loop in use.
+    /// The procedure flown: the paper's single shot or the refuelling procedure.
+    pub procedure: Procedure,
+    /// Outer loop of the paper's procedure.
     pub law: OuterLaw,
     /// IBVS gains.
     pub ibvs: IbvsGains,
@@ -55,6 +59,10 @@ pub struct ControllerConfig {
     pub actuators: ActuatorLimits,
     /// Bound on each inner-loop integrator (a position error), m.
     pub integrator_limit_m: f32,
+    /// The refuelling procedure.
+    pub refuelling: RefuellingConfig,
+    /// The drogue estimator (refuelling procedure).
+    pub estimator: EstimatorConfig,
 }
 
 /// What is wrong with a configuration value.
@@ -96,6 +104,7 @@ impl core::error::Error for ConfigError {}
 impl Default for ControllerConfig {
     fn default() -> Self {
         Self {
+            procedure: Procedure::Refuelling,
             law: OuterLaw::Ibvs,
             ibvs: IbvsGains {
                 k1_mps: 1.0,
@@ -130,6 +139,8 @@ impl Default for ControllerConfig {
             modes: ModeConfig::default(),
             actuators: ActuatorLimits::default(),
             integrator_limit_m: 20.0,
+            refuelling: RefuellingConfig::default(),
+            estimator: EstimatorConfig::default(),
         }
     }
 }
@@ -159,6 +170,15 @@ fn require(field: &'static str, ok: bool) -> Result<(), ConfigError> {
 }
 
 impl ControllerConfig {
+    /// The default configuration flying the paper's procedure (approach, blind terminal
+    /// phase, docked or breakaway) instead of the refuelling procedure.
+    pub fn paper() -> Self {
+        Self {
+            procedure: Procedure::Paper,
+            ..Self::default()
+        }
+    }
+
     /// What PBVS believes about the geometry.
     pub fn pbvs_geometry(&self) -> PbvsGeometry {
         PbvsGeometry {
@@ -285,7 +305,154 @@ impl ControllerConfig {
             )?;
             require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
         }
-        check("integrator_limit_m", self.integrator_limit_m, true)
+        check("integrator_limit_m", self.integrator_limit_m, true)?;
+        self.validate_refuelling()?;
+        self.validate_estimator()
+    }
+
+    fn validate_refuelling(&self) -> Result<(), ConfigError> {
+        let r = &self.refuelling;
+        let l = &self.velocity_limits;
+        for (field, v) in [
+            ("refuelling.station_depth_m", r.station_depth_m),
+            ("refuelling.station_gain_per_s", r.station_gain_per_s),
+            ("refuelling.station_max_speed_mps", r.station_max_speed_mps),
+            ("refuelling.station_offset_tol_m", r.station_offset_tol_m),
+            ("refuelling.station_depth_tol_m", r.station_depth_tol_m),
+            (
+                "refuelling.station_drogue_speed_tol_mps",
+                r.station_drogue_speed_tol_mps,
+            ),
+            (
+                "refuelling.station_relative_speed_tol_mps",
+                r.station_relative_speed_tol_mps,
+            ),
+            ("refuelling.track_gain_per_s", r.track_gain_per_s),
+            ("refuelling.track_accel_mps2", r.track_accel_mps2),
+            ("refuelling.contact_speed_mps", r.contact_speed_mps),
+            ("refuelling.abort_offset_m", r.abort_offset_m),
+            ("refuelling.commit_depth_m", r.commit_depth_m),
+            ("refuelling.gate_radius_m", r.gate_radius_m),
+            ("refuelling.late_gate_radius_m", r.late_gate_radius_m),
+            ("refuelling.gate_max_horizon_s", r.gate_max_horizon_s),
+            ("refuelling.capture_timeout_s", r.capture_timeout_s),
+            ("refuelling.overshoot_m", r.overshoot_m),
+            ("refuelling.missed_aft_mps", r.missed_aft_mps),
+            ("refuelling.missed_clear_s", r.missed_clear_s),
+            ("refuelling.reacquire_limit_s", r.reacquire_limit_s),
+            ("refuelling.sortie_budget_s", r.sortie_budget_s),
+        ] {
+            check(field, v, true)?;
+        }
+        for (field, v) in [
+            ("refuelling.station_dwell_s", r.station_dwell_s),
+            ("refuelling.feedforward_lead_s", r.feedforward_lead_s),
+            ("refuelling.gate_sigmas", r.gate_sigmas),
+            ("refuelling.missed_down_mps", r.missed_down_mps),
+        ] {
+            check(field, v, false)?;
+        }
+        // The estimator's predictions are accurate up to 2 / omega ahead.
+        let range = 2.0 / self.estimator.drogue_freq_radps;
+        require(
+            "refuelling.feedforward_lead_s (<= 2 / estimator.drogue_freq_radps)",
+            r.feedforward_lead_s <= range,
+        )?;
+        require(
+            "refuelling.gate_max_horizon_s (<= 2 / estimator.drogue_freq_radps)",
+            r.gate_max_horizon_s <= range,
+        )?;
+        require(
+            "refuelling.contact_speed_mps (<= velocity_limits.max_closing_mps)",
+            r.contact_speed_mps <= l.max_closing_mps,
+        )?;
+        require(
+            "refuelling.missed_aft_mps (<= velocity_limits.max_closing_mps)",
+            r.missed_aft_mps <= l.max_closing_mps,
+        )?;
+        require(
+            "refuelling.missed_down_mps (<= velocity_limits.max_vertical_mps)",
+            r.missed_down_mps <= l.max_vertical_mps,
+        )?;
+        require(
+            "refuelling.commit_depth_m (< station_depth_m)",
+            r.commit_depth_m < r.station_depth_m,
+        )?;
+        require("refuelling.max_attempts (>= 1)", r.max_attempts >= 1)?;
+        for (field, t) in [
+            ("refuelling.station_dwell_s (< 1 hour)", r.station_dwell_s),
+            (
+                "refuelling.capture_timeout_s (< 1 hour)",
+                r.capture_timeout_s,
+            ),
+            ("refuelling.missed_clear_s (< 1 hour)", r.missed_clear_s),
+            (
+                "refuelling.reacquire_limit_s (< 1 hour)",
+                r.reacquire_limit_s,
+            ),
+            (
+                "refuelling.sortie_budget_s (< 1 day)",
+                r.sortie_budget_s / 24.0,
+            ),
+        ] {
+            require(field, t < 3600.0)?;
+        }
+        Ok(())
+    }
+
+    fn validate_estimator(&self) -> Result<(), ConfigError> {
+        let e = &self.estimator;
+        for (field, v) in [
+            ("estimator.drogue_freq_radps", e.drogue_freq_radps),
+            ("estimator.drogue_accel_psd_m2ps3", e.drogue_accel_psd_m2ps3),
+            (
+                "estimator.drogue_fwd_time_constant_s",
+                e.drogue_fwd_time_constant_s,
+            ),
+            ("estimator.offset_noise_m", e.offset_noise_m),
+            ("estimator.depth_noise_m", e.depth_noise_m),
+            (
+                "estimator.initial_velocity_sigma_mps",
+                e.initial_velocity_sigma_mps,
+            ),
+            (
+                "estimator.initial_displacement_sigma_m",
+                e.initial_displacement_sigma_m,
+            ),
+            ("estimator.gate_sigmas", e.gate_sigmas),
+            ("estimator.drogue_damping", e.drogue_damping),
+            (
+                "estimator.activity_time_constant_s",
+                e.activity_time_constant_s,
+            ),
+        ] {
+            check(field, v, true)?;
+        }
+        for (field, v) in [
+            ("estimator.equilibrium_psd_m2ps", e.equilibrium_psd_m2ps),
+            (
+                "estimator.drogue_fwd_accel_psd_m2ps3",
+                e.drogue_fwd_accel_psd_m2ps3,
+            ),
+            ("estimator.offset_noise_per_m", e.offset_noise_per_m),
+            ("estimator.depth_noise_per_m2", e.depth_noise_per_m2),
+        ] {
+            check(field, v, false)?;
+        }
+        require("estimator.drogue_damping (< 1)", e.drogue_damping < 1.0)?;
+        // The discretisation's series needs omega Ts small; 10 rad/s is 0.2 at 50 Hz.
+        require(
+            "estimator.drogue_freq_radps (<= 10 rad/s)",
+            e.drogue_freq_radps <= 10.0,
+        )?;
+        require(
+            "estimator.drogue_fwd_time_constant_s (>= the control period)",
+            e.drogue_fwd_time_constant_s >= gains::CONTROL_PERIOD_S,
+        )?;
+        require(
+            "estimator.activity_time_constant_s (>= the control period)",
+            e.activity_time_constant_s >= gains::CONTROL_PERIOD_S,
+        )
     }
 }
 

@@ -35,6 +35,7 @@
 pub mod actuator;
 pub mod config;
 pub mod controller;
+pub mod estimator;
 pub mod frames;
 #[rustfmt::skip] // generated: see the module doc
 pub mod gains;
@@ -45,8 +46,10 @@ pub mod mode;
 pub mod nav;
 pub mod num;
 pub mod outer;
+pub mod procedure;
 pub mod wire;
 
 pub use config::{ConfigError, ControllerConfig, OuterLaw};
 pub use controller::{Controller, ControllerInput, ControllerOutput, Counters};
-pub use mode::{BreakawayReason, Mode, ModeRequest};
+pub use mode::{BreakawayReason, Mode, ModeRequest, NoGoReason};
+pub use procedure::{Procedure, RefuellingConfig};

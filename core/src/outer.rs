@@ -111,6 +111,18 @@ pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
     }
 }
 
+/// Moves `from` toward `to` by at most `max_step[i]` (not NaN) on axis `i` (right, down,
+/// forward).
+#[inline]
+pub fn slew_axes(from: &VelocityRe, to: &VelocityRe, max_step: [f32; 3]) -> VelocityRe {
+    let step = |a: f32, b: f32, m: f32| a + clamp_sym(b - a, m);
+    VelocityRe {
+        x_right_mps: step(from.x_right_mps, to.x_right_mps, max_step[0]),
+        y_down_mps: step(from.y_down_mps, to.y_down_mps, max_step[1]),
+        z_fwd_mps: step(from.z_fwd_mps, to.z_fwd_mps, max_step[2]),
+    }
+}
+
 /// IBVS law: `v_x = min(k1, g z) e_x`, `v_y = min(k2, g z) e_y` (`g`: the Cartesian-gain cap),
 /// `v_z = min(max(k3 z - k4 |e_x| - k5 |e_y|, a), v_max)`, lateral and vertical saturated.
 /// Limits are not NaN (a validated configuration's are not; `min`/`max` without calls).

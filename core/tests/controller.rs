@@ -1,4 +1,5 @@
-//! Behaviour tests of the docking controller through its public API only.
+//! Behaviour tests of the docking controller through its public API only, flying the
+//! paper's procedure (the refuelling procedure's are in `tests/procedure.rs`).
 //!
 //! Each test drives [`Controller::step`] through one behaviour of the response specification
 //! in the `controller` module doc and the transition table in the `mode` module doc: engaging,
@@ -39,7 +40,7 @@ fn trim() -> [f32; 4] {
 /// many steps, which a working tracker's noise never produces. The check has its own tests
 /// (`frozen_frames_...`), on the default configuration.
 fn config() -> ControllerConfig {
-    let mut cfg = ControllerConfig::default();
+    let mut cfg = ControllerConfig::paper();
     cfg.measurement.frozen_frame_limit = u16::MAX;
     cfg
 }
@@ -388,7 +389,7 @@ fn late_frames_hold_the_last_command_then_break_away() {
 /// out.
 #[test]
 fn frozen_frames_are_accepted_up_to_the_limit_then_held_then_break_away() {
-    let cfg = ControllerConfig::default();
+    let cfg = ControllerConfig::paper();
     let repeats = u32::from(cfg.measurement.frozen_frame_limit);
     let hold = u32::from(cfg.modes.hold_limit_steps);
     assert!(repeats > 0 && hold > 0);
@@ -417,7 +418,7 @@ fn frozen_frames_are_accepted_up_to_the_limit_then_held_then_break_away() {
 /// `Repeated`, not a repeat of content, and does not count toward `Frozen`.
 #[test]
 fn a_changed_frame_restarts_the_frozen_count_and_repeated_numbers_do_not_count() {
-    let cfg = ControllerConfig::default();
+    let cfg = ControllerConfig::paper();
     let repeats = cfg.measurement.frozen_frame_limit;
     let moved = Seen {
         depth_m: f32::from_bits(MID.depth_m.to_bits() + 1),

@@ -342,9 +342,11 @@ struct Replay {
 fn mode_name(m: Mode) -> &'static str {
     match m {
         Mode::Standby => "standby",
+        Mode::PreContact => "pre-contact",
         Mode::Approach => "approach",
         Mode::Terminal => "terminal",
         Mode::Docked => "docked",
+        Mode::MissedApproach => "missed-approach",
         Mode::Breakaway => "breakaway",
     }
 }
