@@ -52,6 +52,7 @@ fn varying_inputs() -> Vec<ControllerInput> {
                     image_x: 0.2 + 0.05 * s,
                     image_y: -0.1 + 0.03 * c,
                     depth_m: 6.0 + 0.5 * s,
+                    probe_tip: None,
                 },
                 nav,
                 probe_contact: false,

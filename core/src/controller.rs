@@ -23,11 +23,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::actuator::{ActuatorCommand, Saturation};
 use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw, trim_command};
-use crate::estimator::{DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry};
+use crate::estimator::{
+    DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight, TipSighting,
+};
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::gains::{self, CONTROL_PERIOD_S};
 use crate::inner::{Channel, EngineEstimate};
-use crate::kinematics::{lever_arm_lat, lever_arm_lon};
+use crate::kinematics::{lever_arm_lat, lever_arm_lon, point_velocity_tanker_mps};
 use crate::measurement::{
     CameraMeasurement, FreezeDetector, ImageFeature, LimitBits, MeasurementError, SequenceCheck,
     SequenceTracker,
@@ -61,7 +63,8 @@ pub struct ControllerInput {
 pub struct StatusFlags(pub u16);
 
 impl StatusFlags {
-    /// The outer loop ran on a held command (measurement invalid this step, approach).
+    /// No valid measurement this step: the paper's approach ran on its held outer-loop
+    /// command, the refuelling procedure on its estimator's prediction.
     pub const MEASUREMENT_HELD: u16 = 1 << 0;
     /// The inner loops ran on the held navigation sample.
     pub const NAV_HELD: u16 = 1 << 1;
@@ -120,7 +123,7 @@ pub struct Counters {
     pub nav_non_finite: u32,
     /// [`NavError::OutsideEnvelope`] samples.
     pub nav_outside_envelope: u32,
-    /// Approach steps flown on a held outer-loop command.
+    /// Steps flagged [`StatusFlags::MEASUREMENT_HELD`].
     pub measurement_held_steps: u32,
     /// Engaged steps flown on a held navigation sample.
     pub nav_held_steps: u32,
@@ -136,6 +139,8 @@ pub struct Counters {
     pub estimator_rejected: u32,
     /// Restarts of the drogue estimator from a frame after rejections or a non-finite update.
     pub estimator_restarts: u32,
+    /// Probe-tip sightings rejected (not finite, or too far from where the geometry puts it).
+    pub tip_sight_rejected: u32,
 }
 
 impl Counters {
@@ -215,6 +220,8 @@ struct Derived {
     open_loop_throttle: f32,
     /// The refuelling procedure's slew, per axis (right, down, forward), m/s per step.
     refuel_slew_step_mps: [f32; 3],
+    /// The same in a missed approach, m/s.
+    missed_slew_step_mps: f32,
     /// The drogue estimator's discrete model.
     estimator: EstimatorModel,
     /// The probe tip seen from the believed camera.
@@ -252,6 +259,7 @@ impl Derived {
                     cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
                 ]
             },
+            missed_slew_step_mps: cfg.refuelling.missed_accel_mps2 * Controller::PERIOD_S,
             estimator: EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S),
             tip: TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, gains::TRIM.theta_rad),
         })
@@ -268,6 +276,7 @@ pub struct Controller {
     lat: Channel<5, 1, 2>,
     modes: ModeMachine,
     estimator: DrogueEstimator,
+    tip_sight: TipSight,
     sequence: SequenceTracker,
     freeze: FreezeDetector,
     last_nav: NavSample,
@@ -292,18 +301,24 @@ impl Controller {
             Procedure::Paper => cfg.camera.position_body_m,
             Procedure::Refuelling => cfg.probe_tip_body_m,
         };
+        // Each procedure flies its own inner-loop design (`gains`).
+        let (lon, lat) = match cfg.procedure {
+            Procedure::Paper => (&gains::LON, &gains::LAT),
+            Procedure::Refuelling => (&gains::REFUEL_LON, &gains::REFUEL_LAT),
+        };
         Ok(Self {
             lon: Channel::new(
-                &gains::LON,
+                lon,
                 &lever_arm_lon(tracked, gains::TRIM.theta_rad),
                 [trim[0], trim[1]],
             ),
-            lat: Channel::new(&gains::LAT, &lever_arm_lat(tracked), [trim[2], trim[3]]),
+            lat: Channel::new(lat, &lever_arm_lat(tracked), [trim[2], trim[3]]),
             engine: EngineEstimate::new(gains::ENGINE_MODEL),
             cfg,
             derived,
             modes: ModeMachine::default(),
             estimator: DrogueEstimator::default(),
+            tip_sight: TipSight::new(&derived.tip),
             sequence: SequenceTracker::default(),
             freeze: FreezeDetector::default(),
             last_nav: NavSample::default(),
@@ -397,7 +412,8 @@ impl Controller {
             // Fixed at entry: aimed at the drogue, closing at the minimum speed.
             Mode::Terminal if self.cfg.procedure == Procedure::Paper => self.modes.terminal().aim,
             Mode::PreContact => track(Forward::Station),
-            Mode::Approach | Mode::Terminal => track(Forward::Contact),
+            Mode::Approach => track(Forward::Contact),
+            Mode::Terminal => track(Forward::Capture),
             Mode::MissedApproach => track(
                 if self.modes.mode_steps() < self.derived.modes.clear_steps() {
                     Forward::Clear
@@ -414,20 +430,31 @@ impl Controller {
     }
 
     /// Refuelling: the drogue estimator's step (predict with the probe tip's velocity
-    /// `tip_mps` `[right, down, forward]`, correct with a valid frame) and what the mode
-    /// logic decides with. Before engage the "estimate" is the frame itself.
+    /// `tip_mps` `[right, down, forward]`, correct with a valid frame, the drogue's offset
+    /// taken from the probe tip's measured image point `probe_tip` when the frame carries it)
+    /// and what the mode logic decides with. Before engage the "estimate" is the frame itself.
     #[inline(always)]
     fn observe_drogue(
         &mut self,
         feature: &Result<ImageFeature, MeasurementError>,
+        probe_tip: Option<[f32; 2]>,
         tip_mps: [f32; 3],
     ) -> (RefuelInputs, Option<TargetEstimate>, Option<TipFrame>) {
         let nav = &self.last_nav;
+        if feature.is_ok() {
+            let sighting = self.tip_sight.observe(probe_tip, &self.cfg.estimator);
+            bump(
+                &mut self.counters.tip_sight_rejected,
+                sighting == TipSighting::Rejected,
+            );
+        }
+        let tip_image = self.tip_sight.image();
         let frame = feature.as_ref().ok().map(|f| TipFrame {
             drogue_from_tip_m: self.derived.tip.drogue_from_tip(
                 [f.image_x, f.image_y],
                 f.depth_m,
                 [nav.lat.phi_rad, nav.lon.theta_rad, nav.lat.psi_rad],
+                tip_image,
             ),
             camera_depth_m: f.depth_m,
         });
@@ -445,6 +472,7 @@ impl Controller {
                 let [r, d, z] = fr.drogue_from_tip_m;
                 DrogueEstimate {
                     offset_m: [r, d],
+                    mean_offset_m: [r, d],
                     drogue_velocity_mps: [0.0; 3],
                     depth_m: z,
                 }
@@ -545,13 +573,15 @@ impl Controller {
         let x_lat = self.last_nav.lat_design_state();
 
         // 2. Measurement, 3. outer loop: the paper's law (its output is kept, i.e. held, until
-        // the next valid one), or the refuelling procedure's drogue estimator. The probe
-        // tip's (paper: the camera's) velocity `C x` is computed once, for the estimator,
-        // the mode logic's dead reckoning and overspeed check, and the integrators below.
+        // the next valid one), or the refuelling procedure's drogue estimator. The mode
+        // logic's overspeed check and the integrators use the design output `C x` of the
+        // tracked point (the camera's, or the probe tip's in the refuelling procedure); the
+        // estimator takes the probe tip's velocity by exact kinematics instead (the linear
+        // output is off by up to 0.5 m/s while the receiver manoeuvres, which the estimator's
+        // drogue velocity would inherit; `kinematics::point_velocity_tanker_mps`).
         let feature = self.observe_measurement(&input.measurement);
-        let y_lon = self.lon.output(&x_lon);
-        let y_lat = self.lat.output(&x_lat);
         let paper = self.cfg.procedure == Procedure::Paper;
+        let (y_lon, y_lat) = (self.lon.output(&x_lon), self.lat.output(&x_lat));
         let (refuel, target, frame) = if paper {
             let fresh = feature.ok().map(|f| self.outer_law(&f));
             if let Some(o) = fresh
@@ -565,7 +595,9 @@ impl Controller {
             };
             (none, fresh.map(|o| o.target), None)
         } else {
-            self.observe_drogue(&feature, [y_lat[0], y_lon[0], y_lon[1]])
+            let tip =
+                point_velocity_tanker_mps(&self.last_nav, &gains::TRIM, self.cfg.probe_tip_body_m);
+            self.observe_drogue(&feature, input.measurement.probe_tip, tip)
         };
 
         // 4. Mode logic.
@@ -609,12 +641,13 @@ impl Controller {
         };
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
-        } else if paper || mode == Mode::Breakaway {
+        } else if paper || matches!(mode, Mode::Breakaway | Mode::MissedApproach) {
             outer::slew(
                 &self.v_cmd,
                 &self.mode_velocity(&estimate),
                 match mode {
                     Mode::Breakaway => self.derived.breakaway_slew_step_mps,
+                    Mode::MissedApproach => self.derived.missed_slew_step_mps,
                     Mode::Terminal => self.derived.terminal_slew_step_mps,
                     _ => self.derived.slew_step_mps,
                 },

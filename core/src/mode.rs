@@ -10,7 +10,7 @@
 //! | any but standby | `Reset` request | Standby |
 //! | engaged (any but standby and breakaway) | `Abort` request | Breakaway(Abort) |
 //! | engaged | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
-//! | approach, terminal | camera (refuelling: probe tip) forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
+//! | pre-contact, approach, terminal, missed approach | camera (refuelling: probe tip) forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
 //!
 //! The paper's procedure ([`Procedure::Paper`]):
 //!
@@ -35,7 +35,8 @@
 //! | pre-contact, approach | measurement invalid for more than `hold_limit_steps` steps | Breakaway(MeasurementLost) |
 //! | missed approach | measurement invalid for longer than `reacquire_limit_s` | Breakaway(MeasurementLost) |
 //! | pre-contact, missed approach | `sortie_budget_s` elapsed since engage | Breakaway(SortieTimeout) |
-//! | pre-contact | stable (estimate inside the station limits) for `station_dwell_s` | Approach |
+//! | pre-contact | estimated depth < `station_depth_m - station_overrun_m` | Breakaway(StationOverrun) |
+//! | pre-contact | stable (estimate inside the station limits) on `station_dwell_s` worth of consecutive valid frames (lost frames between them neither count nor restart the dwell) | Approach |
 //! | approach | estimated radial offset > `abort_offset_m` | MissedApproach(OffsetTooLarge), or Breakaway(AttemptsExhausted) on the last attempt |
 //! | approach | estimated depth <= `commit_depth_m`, predicted miss > `gate_radius_m` | MissedApproach(PredictedMiss), or Breakaway(AttemptsExhausted) on the last attempt |
 //! | approach | estimated depth <= `commit_depth_m` | Terminal (capture) |
@@ -134,6 +135,9 @@ pub enum BreakawayReason {
     /// Refuelling: the sortie's time budget ([`RefuellingConfig::sortie_budget_s`]) ran out
     /// before a docking.
     SortieTimeout,
+    /// Refuelling: in pre-contact the receiver ran through its station toward the drogue
+    /// ([`RefuellingConfig::station_overrun_m`]) without being cleared to close.
+    StationOverrun,
 }
 
 /// Why an approach of the refuelling procedure was abandoned for a missed approach.
@@ -178,8 +182,8 @@ pub struct ModeConfig {
     pub breakaway_down_mps: f32,
     /// Breakaway without navigation: throttle reduction from trim, open loop.
     pub breakaway_throttle_cut: f32,
-    /// Largest camera forward speed relative to the tanker (from navigation, `C x`) in
-    /// approach and terminal; above it the controller breaks away (`Overspeed`), m/s. Must
+    /// Largest camera (refuelling: probe-tip) forward speed relative to the tanker, from
+    /// navigation, in every engaged mode but docked; above it the controller breaks away (`Overspeed`), m/s. Must
     /// exceed `velocity_limits.max_closing_mps`. Default 2.3 m/s: 0.3 m/s above the largest
     /// commanded closing speed (2.0), and below 2.6 m/s (5 kt, the upper end of the
     /// operational contact band, `../shared/reference/model-data.md`), so that the breakaway
@@ -491,12 +495,14 @@ impl ModeMachine {
         &self.drogue_rate
     }
 
-    /// True when the last valid measurement is being held this step (paper: the outer
-    /// loop's command; refuelling: the estimator coasts outside the capture).
+    /// True when this step has no valid measurement and the controller flies on without one
+    /// (paper: the approach holds the outer loop's last command; refuelling: the estimator
+    /// coasts, in every engaged mode but docked). The paper's blind terminal phase does not
+    /// use the camera, so it never holds.
     pub fn holding_measurement(&self) -> bool {
         matches!(
             self.mode,
-            Mode::Approach | Mode::PreContact | Mode::MissedApproach
+            Mode::Approach | Mode::PreContact | Mode::MissedApproach | Mode::Terminal
         ) && self.meas_invalid_steps > 0
     }
 
@@ -586,8 +592,10 @@ impl ModeMachine {
             self.break_away(BreakawayReason::NavLost);
             return false;
         }
-        if matches!(self.mode, Mode::Approach | Mode::Terminal)
-            && inp.camera_fwd_mps > cfg.overspeed_mps
+        if matches!(
+            self.mode,
+            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
+        ) && inp.camera_fwd_mps > cfg.overspeed_mps
         {
             self.break_away(BreakawayReason::Overspeed);
             return false;
@@ -692,7 +700,7 @@ impl ModeMachine {
         }
         if matches!(
             self.mode,
-            Mode::PreContact | Mode::Approach | Mode::MissedApproach
+            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
         ) {
             self.meas_invalid_steps = if valid {
                 0
@@ -719,22 +727,24 @@ impl ModeMachine {
                     self.break_away(BreakawayReason::MeasurementLost);
                 } else if out_of_time {
                     self.break_away(BreakawayReason::SortieTimeout);
+                } else if e.depth_m < rc.station_depth_m - rc.station_overrun_m {
+                    self.break_away(BreakawayReason::StationOverrun);
                 } else {
-                    let rel = [
-                        e.drogue_velocity_mps[0] - inp.refuel.tip_lateral_mps[0],
-                        e.drogue_velocity_mps[1] - inp.refuel.tip_lateral_mps[1],
-                    ];
-                    let stable = valid
-                        && sq(e.offset_m) <= rl.station_offset_sq
+                    // Judged on valid frames only: a lost frame (held) neither counts toward
+                    // the dwell nor restarts it (at 50 % frame loss a dwell that restarted on
+                    // every lost frame was never reached).
+                    let stable = sq(e.mean_offset_m) <= rl.station_offset_sq
                         && libm::fabsf(e.depth_m - rc.station_depth_m) <= rc.station_depth_tol_m
                         && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
                             <= rl.station_drogue_speed_sq
-                        && sq(rel) <= rl.station_relative_speed_sq;
-                    self.stable_steps = if stable {
-                        self.stable_steps.saturating_add(1)
-                    } else {
-                        0
-                    };
+                        && sq(inp.refuel.tip_lateral_mps) <= rl.station_relative_speed_sq;
+                    if valid {
+                        self.stable_steps = if stable {
+                            self.stable_steps.saturating_add(1)
+                        } else {
+                            0
+                        };
+                    }
                     if self.stable_steps >= rl.dwell_steps {
                         self.enter(Mode::Approach);
                         self.no_go = None;

@@ -223,7 +223,7 @@ mod tests {
 
     #[test]
     fn ibvs_signs_drive_toward_the_drogue() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         // Drogue right of and above the boresight: move right, move up (negative down), close.
         let o = ibvs(&feature(0.2, -0.1, 5.0), &c.ibvs, &c.velocity_limits);
         assert!(o.v_des.x_right_mps > 0.0);
@@ -241,7 +241,7 @@ mod tests {
 
     #[test]
     fn ibvs_closing_speed_is_floored_slowed_by_error_and_capped() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let (g, lim) = (&c.ibvs, &c.velocity_limits);
         // Far and centred: k3 z above the cap.
         assert_eq!(
@@ -264,7 +264,7 @@ mod tests {
 
     #[test]
     fn ibvs_gain_cap_limits_k_over_z_near_the_drogue() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let (g, lim) = (&c.ibvs, &c.velocity_limits);
         let cap = g.max_cartesian_gain_per_s;
         // Far: the paper's k1 e_x. Near: cap z e_x, i.e. cap times the lateral offset.
@@ -305,7 +305,7 @@ mod tests {
 
     #[test]
     fn pbvs_reconstructs_the_offset_at_trim() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let geo = c.pbvs_geometry();
         // Camera at the probe tip, level boresight at trim: offset = image point * depth.
         let r =
@@ -315,7 +315,7 @@ mod tests {
 
     #[test]
     fn pbvs_is_biased_by_a_mount_error() {
-        let mut c = ControllerConfig::default();
+        let mut c = ControllerConfig::paper();
         c.camera.position_body_m[2] += -0.5; // believed 0.5 m higher than it is
         let r = pbvs_drogue_from_probe_tanker_m(
             &feature(0.0, 0.0, 4.0),

@@ -117,6 +117,7 @@ impl Rig {
                 image_x: seen.x,
                 image_y: seen.y,
                 depth_m: seen.depth_m,
+                probe_tip: None,
             },
             nav: self.nav,
             probe_contact: false,
@@ -644,9 +645,9 @@ struct RateModel {
 impl RateModel {
     fn observe(&mut self, cfg: &ControllerConfig, t: &TargetEstimate) {
         let now = [t.right_m, t.down_m];
-        for k in 0..2 {
-            let raw = (now[k] - self.last[k]) / Controller::PERIOD_S;
-            self.rate[k] += cfg.modes.drogue_rate_filter * (raw - self.rate[k]);
+        for ((rate, last), now) in self.rate.iter_mut().zip(self.last).zip(now) {
+            let raw = (now - last) / Controller::PERIOD_S;
+            *rate += cfg.modes.drogue_rate_filter * (raw - *rate);
         }
         self.last = now;
     }
@@ -1001,6 +1002,41 @@ fn new_rejects_an_invalid_config_naming_the_field() {
     );
     assert_eq!(rejection(|_| {}), None);
     assert_eq!(rejection(|c| c.law = OuterLaw::Pbvs), None);
+}
+
+#[test]
+fn new_rejects_angles_outside_the_range_of_the_steps_trigonometry() {
+    let inconsistent = |field| {
+        Some(ConfigError {
+            field,
+            problem: ConfigProblem::Inconsistent,
+        })
+    };
+    let pitch = "camera.pitch_down_rad (finite, at most 0.8 rad either way)";
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = 0.81),
+        inconsistent(pitch)
+    );
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = -0.81),
+        inconsistent(pitch)
+    );
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = f32::NAN),
+        inconsistent(pitch)
+    );
+    assert_eq!(rejection(|c| c.camera.pitch_down_rad = 0.8), None);
+    assert_eq!(
+        rejection(|c| c.nav_envelope.max_angle_rad = 0.75),
+        inconsistent(
+            "nav_envelope.max_angle_rad (plus the trim pitch and angle of attack, <= 0.8 rad)"
+        )
+    );
+    assert_eq!(
+        rejection(|c| c.nav_envelope.max_bank_rad = 0.9),
+        inconsistent("nav_envelope.max_bank_rad / max_sideslip_rad (<= 0.8 rad)")
+    );
+    assert_eq!(rejection(|c| c.nav_envelope.max_bank_rad = 0.8), None);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -174,6 +174,7 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                         image_x: x,
                         image_y: y,
                         depth_m: depth,
+                        probe_tip: None,
                     },
                     nav,
                     probe_contact,
@@ -327,6 +328,7 @@ fn plausible_frame() -> impl Strategy<Value = CameraMeasurement> {
             image_x: x,
             image_y: y,
             depth_m: z,
+            probe_tip: None,
         }
     })
 }
