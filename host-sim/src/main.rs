@@ -323,8 +323,9 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
 
 fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     let s = synthesis::nominal()?;
+    let refuel = synthesis::nominal_refuelling()?;
     if let Some(path) = &write_core {
-        std::fs::write(path, codegen::render(&s))
+        std::fs::write(path, codegen::render(&s, &refuel))
             .map_err(|e| format!("{}: {e}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
