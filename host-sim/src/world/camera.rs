@@ -43,13 +43,25 @@ impl Default for CameraParams {
 pub struct PinholeCamera {
     /// Intrinsics and limits.
     pub params: CameraParams,
+    /// The probe tip's marker in camera axes, m, when in view.
+    probe_tip_camera_m: Option<Vector3<f64>>,
     seq: u32,
 }
 
 impl PinholeCamera {
     /// A camera with `params`; its first frame is number 1.
     pub fn new(params: CameraParams) -> Self {
-        Self { params, seq: 0 }
+        Self {
+            params,
+            probe_tip_camera_m: None,
+            seq: 0,
+        }
+    }
+
+    /// Shows the probe tip's marker, fixed at `tip_camera_m` in camera axes (m), in every
+    /// frame (exactly, as the ideal camera sees everything); `None`: not in view.
+    pub fn set_probe_tip(&mut self, tip_camera_m: Option<Vector3<f64>>) {
+        self.probe_tip_camera_m = tip_camera_m.filter(|t| t.z > 0.0);
     }
 
     /// Takes one frame (the sequence number advances every call).
@@ -72,6 +84,10 @@ impl PinholeCamera {
             image_x: if visible { ix as f32 } else { 0.0 },
             image_y: if visible { iy as f32 } else { 0.0 },
             depth_m: if visible { p.z as f32 } else { 0.0 },
+            probe_tip: self
+                .probe_tip_camera_m
+                .filter(|_| visible)
+                .map(|t| [(t.x / t.z) as f32, (t.y / t.z) as f32]),
         }
     }
 }
