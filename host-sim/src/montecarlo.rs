@@ -240,12 +240,20 @@ pub struct RunRecord {
     /// behind: `[right, up]`, m (direction interpolated between control steps, length the
     /// miss).
     pub plane_offset_m: Option<[f64; 2]>,
-    /// A crossing after a breakaway.
+    /// The first crossing after the controller stopped pushing (a missed approach or a
+    /// breakaway).
     pub crossed_after_breakaway: Option<Crossing>,
     /// Time of the decisive event, s.
     pub time_s: f64,
     /// The controller's breakaway reason, if it broke away (before or after the plane).
     pub breakaway_reason: Option<String>,
+    /// Attempts flown (1 for the paper's procedure).
+    pub attempts: u8,
+    /// How each attempt ended, in order (`docked`, `no-go: <reason>`, `breakaway: <reason>`,
+    /// `unfinished`; `struck` appended when the probe struck in it).
+    pub attempt_ends: Vec<String>,
+    /// Docked at the first attempt.
+    pub first_attempt_docked: bool,
 }
 
 /// Where the probe tip crossed the drogue plane, `[right, up]` of the tip relative to the
@@ -272,28 +280,28 @@ fn plane_offset(run: &Run) -> Option<[f64; 2]> {
     })
 }
 
-/// True when `run` ended in an unsafe state (module doc): the probe tip crossed the drogue
-/// plane before any breakaway at or outside the capture radius, or crossed it faster than
-/// the closing band within one canopy diameter of the drogue centre.
+/// True when `run` ended in an unsafe state (module doc): the probe tip struck (crossed the
+/// drogue plane outside the capture radius or the closing band while the controller was
+/// still pushing, i.e. before any missed approach or breakaway of that attempt), or crossed
+/// it (at any time) faster than the closing band within one canopy diameter of the drogue
+/// centre.
 pub fn is_unsafe(run: &Run) -> bool {
-    let wide = run.summary.miss_m.is_some_and(|m| m >= CAPTURE_RADIUS_M);
-    let fast_and_close = run
-        .contact
-        .is_some_and(|c| c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M);
-    wide || fast_and_close
+    run.crossings.iter().any(|e| {
+        let c = &e.contact;
+        let struck = e.pushing && !c.docked;
+        let fast_and_close = c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M;
+        struck || fast_and_close
+    })
 }
 
 /// The record of a finished run.
 fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
     let s = &run.summary;
     let reached = s.miss_m.zip(s.closure_mps);
-    let after = match (reached, run.contact) {
-        (None, Some(c)) => Some(Crossing {
-            miss_m: c.miss_m,
-            closure_mps: c.closure_mps,
-        }),
-        _ => None,
-    };
+    let after = run.crossings.iter().find(|e| !e.pushing).map(|e| Crossing {
+        miss_m: e.contact.miss_m,
+        closure_mps: e.contact.closure_mps,
+    });
     let failure = match s.outcome {
         Outcome::Docked => None,
         Outcome::Aborted => Some(format!(
@@ -328,6 +336,19 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
         crossed_after_breakaway: after,
         time_s: s.time_s,
         breakaway_reason: s.breakaway_reason.clone(),
+        attempts: s.attempts,
+        attempt_ends: run
+            .attempts
+            .iter()
+            .map(|a| {
+                if a.struck {
+                    format!("{} (struck)", a.end)
+                } else {
+                    a.end.clone()
+                }
+            })
+            .collect(),
+        first_attempt_docked: run.attempts.first().is_some_and(|a| a.end == "docked"),
     }
 }
 
@@ -353,6 +374,9 @@ pub fn run_one(base: &ScenarioFile, index: u64) -> RunRecord {
             crossed_after_breakaway: None,
             time_s: 0.0,
             breakaway_reason: None,
+            attempts: 0,
+            attempt_ends: Vec::new(),
+            first_attempt_docked: false,
         },
     }
 }
@@ -540,12 +564,20 @@ pub struct CampaignSummary {
     pub shard: Option<String>,
     /// Runs summarised here.
     pub runs: u64,
-    /// Of which docked.
+    /// Of which docked (within the sortie, at any attempt).
     pub docked: u64,
     /// Docked fraction.
     pub success_rate: f64,
     /// Its 95 % confidence interval (Wilson score).
     pub success_ci95: Interval,
+    /// Runs that docked at their first attempt.
+    pub first_attempt_docked: u64,
+    /// Their fraction's 95 % Wilson interval.
+    pub first_attempt_ci95: Interval,
+    /// Runs per number of attempts flown.
+    pub attempts_histogram: BTreeMap<u8, u64>,
+    /// Attempts per way an attempt ended, over all runs.
+    pub attempt_ends: BTreeMap<String, u64>,
     /// Runs ending in an unsafe state (module doc).
     pub unsafe_end_states: u64,
     /// Their fraction's 95 % Wilson interval.
@@ -621,15 +653,19 @@ fn definitions() -> BTreeMap<String, String> {
     [
         (
             "success",
-            "the run docked: at the first crossing of the drogue plane the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+            "the run docked within its sortie: at a crossing of the drogue plane while the controller was pushing (not in a missed approach or a breakaway) the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+        ),
+        (
+            "first_attempt_docked",
+            "the run docked at its first attempt (the paper's procedure has only one)",
         ),
         (
             "unsafe_end_states",
-            "the probe tip crossed the drogue plane before any breakaway at or outside the capture radius, or crossed it (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
+            "the probe tip struck: it crossed the drogue plane while the controller was pushing (before any missed approach or breakaway of that attempt) outside the capture radius or the closing band; or it crossed the plane (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
         ),
         (
             "crossed_after_breakaway",
-            "the probe tip crossed the drogue plane after the controller had broken away (counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
+            "the probe tip crossed the drogue plane after the controller had stopped pushing (a missed approach or a breakaway; counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
         ),
         (
             "ci95",
@@ -654,13 +690,20 @@ pub fn summarise(
     let n = records.len() as u64;
     let count = |f: &dyn Fn(&RunRecord) -> bool| records.iter().filter(|r| f(r)).count() as u64;
     let docked = count(&|r| r.docked);
+    let first = count(&|r| r.first_attempt_docked);
     let unsafe_n = count(&|r| r.unsafe_end);
     let mut outcomes = BTreeMap::new();
     let mut causes = BTreeMap::new();
+    let mut attempts = BTreeMap::new();
+    let mut ends = BTreeMap::new();
     for r in records {
         *outcomes.entry(r.outcome.name().to_string()).or_insert(0) += 1;
         if let Some(c) = &r.failure {
             *causes.entry(c.clone()).or_insert(0) += 1;
+        }
+        *attempts.entry(r.attempts).or_insert(0) += 1;
+        for e in &r.attempt_ends {
+            *ends.entry(e.clone()).or_insert(0) += 1;
         }
     }
     CampaignSummary {
@@ -671,6 +714,10 @@ pub fn summarise(
         docked,
         success_rate: if n > 0 { docked as f64 / n as f64 } else { 0.0 },
         success_ci95: wilson(docked, n),
+        first_attempt_docked: first,
+        first_attempt_ci95: wilson(first, n),
+        attempts_histogram: attempts,
+        attempt_ends: ends,
         unsafe_end_states: unsafe_n,
         unsafe_ci95: wilson(unsafe_n, n),
         crossed_after_breakaway: count(&|r| r.crossed_after_breakaway.is_some()),
