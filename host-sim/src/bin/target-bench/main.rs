@@ -9,8 +9,9 @@
 //! Method (`docs/benchmarks.md`):
 //! 1. Record: the in-process controller (default configuration, the one the firmware runs)
 //!    flies several docking scenarios in the simulator (calm air with the wake, hose and LED
-//!    camera; the ideal world; level II turbulence; the bow wave; 50 % frame loss; three runs
-//!    that break away: 80 % frame loss, a frozen tracker, a slow throttle (overspeed)), and
+//!    camera; the ideal world; level II turbulence (two missed approaches and a docking);
+//!    the bow wave; 50 % frame loss; three runs
+//!    that break away: 90 % frame loss, a frozen tracker, a slow throttle (overspeed)), and
 //!    every step's [`ControllerInput`] is kept; each must end as named, or the run fails. Two more input
 //!    sequences are derived from recorded ones: the navigation lost mid-approach (hold, then
 //!    breakaway open loop) and a docking held then lost (docked, then breakaway).
@@ -135,8 +136,9 @@ fn record(
     Ok((rec.inputs, outcome.to_lowercase()))
 }
 
-/// A preset scenario flown with the firmware's configuration (Table 1 gains, a = 0.8 m/s,
-/// the camera where the controller believes it is); `edit` adjusts the file first.
+/// A preset scenario flown with the firmware's configuration (the default: the refuelling
+/// procedure; the paper's outer gains set to Table 1 and a = 0.8 m/s, as the default has
+/// them); `edit` adjusts the file first.
 fn preset(name: &str, seed: u64, edit: impl FnOnce(&mut ScenarioFile)) -> Result<Scenario, Error> {
     let mut f = ScenarioFile::load(name)?;
     f.seed = seed;
@@ -184,29 +186,29 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "paper-level2 seed 1: level II turbulence (0.7 m/s)",
-            preset("paper-level2", 1, |_| {})?,
+            "level2 seed 1: level II turbulence (0.7 m/s), two missed approaches, docks on the third",
+            preset("level2", 1, |_| {})?,
             vec![],
             "docked",
         ),
         (
             "bow-wave",
-            "paper-bow-wave seed 1 with Table 1 gains: bow wave, level I turbulence",
-            preset("paper-bow-wave", 1, |_| {})?,
+            "bow-wave seed 1: bow wave, level I turbulence",
+            preset("bow-wave", 1, |_| {})?,
             vec![],
             "docked",
         ),
         (
             "image-loss",
-            "paper-level1 seed 1, half of the camera frames lost",
-            preset("paper-level1", 1, |f| f.camera.drop_probability = 0.5)?,
+            "level1 seed 1, half of the camera frames lost",
+            preset("level1", 1, |f| f.camera.drop_probability = 0.5)?,
             vec![],
             "docked",
         ),
         (
             "breakaway-image-lost",
-            "paper-level1 seed 1, 80 % of the frames lost: measurement lost, breaks away",
-            preset("paper-level1", 1, |f| f.camera.drop_probability = 0.8)?,
+            "level1 seed 1, 90 % of the frames lost: measurement lost, breaks away",
+            preset("level1", 1, |f| f.camera.drop_probability = 0.9)?,
             vec![],
             "measurementlost",
         ),
