@@ -3,7 +3,8 @@
 //!
 //! Place in the data flow: beside the outer loop, in the refuelling procedure
 //! ([`crate::procedure`]). Every engaged step it *predicts* with the probe tip's own velocity
-//! from navigation (`C x`, tanker axes) and, when the step's camera frame is valid,
+//! from navigation (exact kinematics, [`crate::kinematics::point_velocity_tanker_mps`],
+//! tanker axes) and, when the step's camera frame is valid,
 //! *corrects* with the frame turned into the drogue's offset from the probe tip
 //! ([`TipGeometry::drogue_from_tip`]: camera set-back removed, de-rotated by the navigation
 //! attitude into tanker axes). Its estimate feeds the outer loop's feed-forward, the go/no-go
