@@ -125,6 +125,121 @@ impl fmt::Display for Shard {
     }
 }
 
+/// Where a shard was taken from when `--shard` was not given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShardSource {
+    /// A Slurm job array: `SLURM_ARRAY_TASK_ID` within `SLURM_ARRAY_TASK_MIN` and
+    /// `SLURM_ARRAY_TASK_COUNT`.
+    SlurmArray,
+    /// A Kubernetes Indexed Job: `JOB_COMPLETION_INDEX` (0-based) of `--shards M`.
+    IndexedJob,
+}
+
+impl fmt::Display for ShardSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::SlurmArray => "the Slurm job array (SLURM_ARRAY_TASK_ID)",
+            Self::IndexedJob => "the Kubernetes Indexed Job (JOB_COMPLETION_INDEX)",
+        })
+    }
+}
+
+/// The shard of a job of a batch system, from its environment (`lookup` reads a variable),
+/// for a campaign run without `--shard`. `shards` is `--shards M`, the number of completions
+/// of a Kubernetes Indexed Job (whose environment carries the index only).
+///
+/// - Slurm job arrays (`sbatch --array=A-B`): shard
+///   `SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN + 1` of `SLURM_ARRAY_TASK_COUNT`. The array must be a contiguous range of step 1 (a list
+///   or a step would leave runs unflown, so it is refused); `--shards`, if given, must equal
+///   the count.
+/// - Kubernetes Indexed Jobs: shard `JOB_COMPLETION_INDEX + 1` of `--shards M`, which is then
+///   required.
+/// - Neither: `Ok(None)`, the whole campaign; `--shards` alone is an error, as is an
+///   environment that names both.
+///
+/// Every refusal names the variable and what was wrong, so a batch job fails at once instead
+/// of flying the wrong runs.
+pub fn shard_from_env(
+    lookup: impl Fn(&str) -> Option<String>,
+    shards: Option<u64>,
+) -> Result<Option<(Shard, ShardSource)>, String> {
+    let num = |name: &str| -> Result<Option<u64>, String> {
+        lookup(name)
+            .map(|v| {
+                v.trim()
+                    .parse::<u64>()
+                    .map_err(|_| format!("{name}={v:?} is not a non-negative integer"))
+            })
+            .transpose()
+    };
+    let slurm = num("SLURM_ARRAY_TASK_ID")?;
+    let indexed = num("JOB_COMPLETION_INDEX")?;
+    match (slurm, indexed) {
+        (Some(_), Some(_)) => Err(
+            "both SLURM_ARRAY_TASK_ID and JOB_COMPLETION_INDEX are set: say which shard with --shard K/M"
+                .into(),
+        ),
+        (Some(id), None) => {
+            let need = |name: &str| {
+                num(name)?.ok_or_else(|| format!("SLURM_ARRAY_TASK_ID is set but {name} is not"))
+            };
+            let (min, max, count) = (
+                need("SLURM_ARRAY_TASK_MIN")?,
+                need("SLURM_ARRAY_TASK_MAX")?,
+                need("SLURM_ARRAY_TASK_COUNT")?,
+            );
+            if let Some(step) = num("SLURM_ARRAY_TASK_STEP")?
+                && step != 1
+            {
+                return Err(format!(
+                    "the Slurm array steps by {step}: use a contiguous range (--array=A-B)"
+                ));
+            }
+            if count == 0 || max < min || max - min + 1 != count {
+                return Err(format!(
+                    "the Slurm array {min}..={max} of {count} tasks is not a contiguous range: use --array=A-B"
+                ));
+            }
+            if !(min..=max).contains(&id) {
+                return Err(format!(
+                    "SLURM_ARRAY_TASK_ID={id} is outside the array {min}..={max}"
+                ));
+            }
+            if let Some(m) = shards
+                && m != count
+            {
+                return Err(format!(
+                    "--shards {m} differs from SLURM_ARRAY_TASK_COUNT={count}"
+                ));
+            }
+            Ok(Some((
+                Shard {
+                    k: id - min + 1,
+                    m: count,
+                },
+                ShardSource::SlurmArray,
+            )))
+        }
+        (None, Some(index)) => {
+            let m = shards.ok_or(
+                "JOB_COMPLETION_INDEX is set: give the Indexed Job's completions as --shards M",
+            )?;
+            if index >= m {
+                return Err(format!(
+                    "JOB_COMPLETION_INDEX={index} is not below --shards {m}"
+                ));
+            }
+            Ok(Some((Shard { k: index + 1, m }, ShardSource::IndexedJob)))
+        }
+        (None, None) => match shards {
+            Some(m) => Err(format!(
+                "--shards {m} without JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID: give --shard K/M"
+            )),
+            None => Ok(None),
+        },
+    }
+}
+
 /// The run indices of a campaign of `runs` runs in `shard` (all of them without one).
 pub fn indices(runs: u64, shard: Option<Shard>) -> Vec<u64> {
     match shard {
@@ -1100,5 +1215,78 @@ mod tests {
         all.sort_unstable();
         assert_eq!(all, indices(10, None));
         assert_eq!(indices(2, Some(Shard { k: 3, m: 3 })), Vec::<u64>::new());
+    }
+
+    /// A batch system's environment as `shard_from_env` reads it.
+    fn env(vars: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> + use<> {
+        let vars: Vec<(String, String)> = vars
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        move |name| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone())
+    }
+
+    #[test]
+    fn a_batch_job_takes_its_shard_from_the_environment() {
+        let slurm = |id: &'static str| {
+            env(&[
+                ("SLURM_ARRAY_TASK_ID", id),
+                ("SLURM_ARRAY_TASK_MIN", "3"),
+                ("SLURM_ARRAY_TASK_MAX", "6"),
+                ("SLURM_ARRAY_TASK_COUNT", "4"),
+                ("SLURM_ARRAY_TASK_STEP", "1"),
+            ])
+        };
+        let shard = |k, m| Shard { k, m };
+        assert_eq!(
+            shard_from_env(slurm("3"), None),
+            Ok(Some((shard(1, 4), ShardSource::SlurmArray)))
+        );
+        assert_eq!(
+            shard_from_env(slurm("6"), Some(4)),
+            Ok(Some((shard(4, 4), ShardSource::SlurmArray)))
+        );
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "0")]);
+        assert_eq!(
+            shard_from_env(&k8s, Some(5)),
+            Ok(Some((shard(1, 5), ShardSource::IndexedJob)))
+        );
+        assert_eq!(shard_from_env(env(&[]), None), Ok(None));
+        // Refusals name what is wrong.
+        let refused = |lookup: &dyn Fn(&str) -> Option<String>, shards, what: &str| {
+            let e = shard_from_env(lookup, shards).unwrap_err();
+            assert!(e.contains(what), "{e}");
+        };
+        refused(&slurm("7"), None, "outside the array");
+        refused(&slurm("4"), Some(3), "differs from SLURM_ARRAY_TASK_COUNT");
+        refused(&k8s, None, "--shards M");
+        refused(&env(&[("JOB_COMPLETION_INDEX", "5")]), Some(5), "not below");
+        refused(&env(&[("JOB_COMPLETION_INDEX", "x")]), Some(5), "integer");
+        refused(&env(&[]), Some(5), "without JOB_COMPLETION_INDEX");
+        refused(
+            &env(&[("SLURM_ARRAY_TASK_ID", "1"), ("JOB_COMPLETION_INDEX", "1")]),
+            Some(2),
+            "both",
+        );
+        refused(
+            &env(&[("SLURM_ARRAY_TASK_ID", "1")]),
+            None,
+            "SLURM_ARRAY_TASK_MIN is not",
+        );
+        let stepped = env(&[
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "6"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+            ("SLURM_ARRAY_TASK_STEP", "2"),
+        ]);
+        refused(&stepped, None, "steps by 2");
+        let list = env(&[
+            ("SLURM_ARRAY_TASK_ID", "1"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_MAX", "9"),
+            ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ]);
+        refused(&list, None, "not a contiguous range");
     }
 }
