@@ -2,7 +2,7 @@
 //!
 //! - The lever-arm part of the camera-velocity output matrices: the camera moves with the
 //!   receiver's CG plus `omega x p_cam`, rotated into tanker axes at the trim pitch
-//!   (paper eq. (7)-(10), read as paper-notes item 4). The CG part comes from the numerical
+//!   (paper eq. (7)-(10), read as in docs/paper.md, item 4). The CG part comes from the numerical
 //!   linearisation and is generated into [`crate::gains`]; the lever-arm part is computed here
 //!   from the camera position the controller *believes*, so a mount error shows up exactly
 //!   where the paper's position-error experiment puts it.
@@ -30,7 +30,7 @@ pub struct CameraMount {
     /// Camera optical centre relative to the CG, body axes (x forward, y right, z down), m.
     pub position_body_m: [f32; 3],
     /// Boresight pitched down from the body x axis, rad. Set to the trim pitch so that the
-    /// boresight is level at trim (paper-notes item 8).
+    /// boresight is level at trim (docs/paper.md, item 8).
     pub pitch_down_rad: f32,
 }
 

@@ -186,7 +186,7 @@ pub struct ModeConfig {
     /// navigation, in every engaged mode but docked; above it the controller breaks away (`Overspeed`), m/s. Must
     /// exceed `velocity_limits.max_closing_mps`. Default 2.3 m/s: 0.3 m/s above the largest
     /// commanded closing speed (2.0), and below 2.6 m/s (5 kt, the upper end of the
-    /// operational contact band, `../shared/reference/model-data.md`), so that the breakaway
+    /// operational contact band; docs/models.md, "Docking check"), so that the breakaway
     /// starts before the speed leaves the band. No run of the 1,000-run `paper-level2` and
     /// `paper-bow-wave` campaigns exceeds even 2.05 m/s (docs/faults.md).
     pub overspeed_mps: f32,

@@ -1,7 +1,7 @@
 //! Outer loop: from the validated image feature to a desired camera velocity.
 //!
 //! Two laws, selectable in [`crate::config::ControllerConfig::law`]:
-//! - [`ibvs`]: the paper's eq. (16), (18) and the closing-speed law of paper-notes item 2,
+//! - [`ibvs`]: the paper's eq. (16), (18) and the closing-speed law of docs/paper.md, item 2,
 //!   acting on the image error directly;
 //! - [`pbvs`]: the position-based baseline: the image point and depth are turned into a 3-D
 //!   drogue position through the *believed* camera mount and the navigation attitude, and a
@@ -71,7 +71,7 @@ pub struct PbvsGains {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct VelocityLimits {
-    /// Minimum closing speed `a` (paper eq. (22), read as paper-notes item 2 and 6), m/s.
+    /// Minimum closing speed `a` (paper eq. (22), read as in docs/paper.md, items 2 and 6), m/s.
     /// Also the closing speed of the blind terminal phase; must lie in the coupling band.
     pub min_closing_mps: f32,
     /// Maximum closing speed, m/s.

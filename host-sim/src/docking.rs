@@ -1,7 +1,7 @@
 //! The docking check: when the probe tip reaches the drogue's capture plane, was it a dock?
 //!
-//! Definition (paper-notes, "What docked means"; model-data.md, "Docking check"): at the first
-//! instant the probe tip reaches the drogue plane (depth, drogue x minus probe-tip x in the
+//! Definition (docs/paper.md, "What "docked" means"; docs/models.md, "Docking check"): at the
+//! first instant the probe tip reaches the drogue plane (depth, drogue x minus probe-tip x in the
 //! tanker frame, crosses zero), the run docks when the radial offset of the tip from the
 //! drogue centre is below the capture radius and the closing speed is inside the band that
 //! opens the coupling without damage. Anything else is a miss.
@@ -20,7 +20,7 @@ pub const CLOSING_BAND_MPS: (f64, f64) = (0.5, 2.6);
 
 /// Clearance from the drogue centre below which passing the drogue plane faster than the
 /// closing band is unsafe even after a breakaway, m: one canopy diameter (0.6096 m,
-/// model-data.md), so the probe passes clear of the canopy's rim.
+/// docs/models.md, "Hose and drogue"), so the probe passes clear of the canopy's rim.
 pub const FAST_PASS_CLEARANCE_M: f64 = 0.6096;
 
 /// What happened at the drogue plane.

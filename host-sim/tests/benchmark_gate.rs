@@ -1,6 +1,7 @@
-//! The regression gate of the target benchmarks (issue 5): the control step's maximum
-//! instructions, the control path's stack and each board's flash must not grow past the
-//! checked-in expectations (`benchmarks/expected.json`, with its stated tolerance).
+//! The regression gate of the target benchmarks (docs/benchmarks.md, "The gate"): the
+//! control step's maximum instructions, the control path's stack and each board's flash must
+//! not grow past the checked-in expectations (`benchmarks/expected.json`, with its stated
+//! tolerance).
 //!
 //! It runs the benchmark runner (`target-bench --check`): every recorded docking workload
 //! replayed through the `qemu` firmware in QEMU (exact instruction counts), the ELFs' sizes.

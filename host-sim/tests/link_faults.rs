@@ -1,7 +1,7 @@
 //! Fault injection through the real serial link: the firmware runs in QEMU and the host
 //! corrupts, drops, delays and duplicates measurement frames and sends garbage.
 //!
-//! What must hold (issue 4):
+//! What must hold over a faulty link:
 //! - the firmware recovers framing after every fault (the next good frame is answered);
 //! - it counts each error: its reported [`LinkCounters`] equal those of a replay of every
 //!   byte the host sent through the core's own decoder (an exact model, since both ends

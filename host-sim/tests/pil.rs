@@ -4,10 +4,10 @@
 //!
 //! Needs `qemu-system-arm` and the firmware ELF: [`firmware_elf`] builds it (its own target
 //! directory, so no deadlock on the build lock of the running `cargo test`) unless
-//! `IBVS_FIRMWARE_ELF` names one. The acceptance check of issue 4: same outcome, miss within
-//! 2 cm, same mode sequence. Since the Cortex-M4F and the host both compute the core's `f32`
-//! arithmetic in IEEE single precision without fused or flushed operations, the outputs are
-//! in fact identical bit for bit, and that is checked too.
+//! `IBVS_FIRMWARE_ELF` names one. The processor-in-the-loop acceptance check: same outcome,
+//! miss within 2 cm, same mode sequence. Since the Cortex-M4F and the host both compute the
+//! core's `f32` arithmetic in IEEE single precision without fused or flushed operations, the
+//! outputs are in fact identical bit for bit, and that is checked too.
 
 use host_sim::pil::{PilFlightComputer, firmware_elf};
 use host_sim::sim::{Run, Scenario, run};

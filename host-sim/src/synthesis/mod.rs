@@ -1,7 +1,7 @@
 //! Gain synthesis: from the trimmed, linearised receiver to the discrete LQR gains that the
 //! core's inner loops run.
 //!
-//! Per channel (paper eq. (25)-(35), read as paper-notes items 1, 4, 5 and 9):
+//! Per channel (paper eq. (25)-(35), read as in docs/paper.md, items 1, 4, 5 and 9):
 //! 1. take the channel's block `(A, B)` of the linear model and its camera-velocity output
 //!    `C = C_cg + C_lever(p_cam)`;
 //! 2. discretise the plant by zero-order hold at `Ts`: `(Ad, Bd)`;
@@ -25,7 +25,8 @@ use ibvs_core::inner::{LAT_INPUTS, LAT_OUTPUTS, LAT_STATES, LON_INPUTS, LON_OUTP
 use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use linalg::{DareError, dare, dare_residual, spectral_radius, zoh};
 
-/// The refuelling flight condition (model-data.md): tanker speed, m/s.
+/// The refuelling flight condition (docs/models.md, "Flight condition and frames"): tanker
+/// speed, m/s.
 pub const REFUELLING_SPEED_MPS: f64 = 120.0;
 /// The refuelling flight condition: altitude, m.
 pub const REFUELLING_ALTITUDE_M: f64 = 3000.0;
@@ -33,7 +34,8 @@ pub const REFUELLING_ALTITUDE_M: f64 = 3000.0;
 pub const NOMINAL_XCG: f64 = 0.35;
 /// Control period the core runs at, s.
 pub const CONTROL_PERIOD_S: f64 = 0.02;
-/// Probe tip (and camera, paper Assumption 3) relative to the CG, body axes, m (model-data.md).
+/// Probe tip (and camera, paper Assumption 3) relative to the CG, body axes, m
+/// (docs/models.md, "Probe tip and camera position").
 pub const PROBE_TIP_BODY_M: [f64; 3] = [6.06, 0.54, -0.86];
 
 /// Largest accepted relative Riccati residual.
@@ -42,7 +44,7 @@ pub const MAX_RICCATI_RESIDUAL: f64 = 1e-9;
 /// Diagonal LQR weights of both channels.
 ///
 /// Our judgement, by Bryson's rule (weight = 1 / acceptable value^2) from the authors'
-/// starting point (model-data.md, "Gains"), with our SI units: states in rad, m/s, rad/s;
+/// starting point (docs/models.md, "Gains"), with our SI units: states in rad, m/s, rad/s;
 /// integrators in m (they integrate a velocity error); elevator, aileron, rudder in rad;
 /// throttle as a fraction.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -478,7 +480,7 @@ mod tests {
 
     #[test]
     fn the_papers_output_matrix_makes_the_integrator_uncontrollable() {
-        // Paper-notes item 4: eq. (13)-(14) keep only lever-arm terms in the vertical row,
+        // docs/paper.md, item 4: eq. (13)-(14) keep only lever-arm terms in the vertical row,
         // -x_c q. Its integral is -x_c theta plus a constant, so the augmented plant has a mode
         // at 1 that no input moves: no stabilising Riccati solution exists. With the
         // kinematic row (climb rate V0 (theta - alpha) plus the lever arm) it is controllable.

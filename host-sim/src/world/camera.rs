@@ -22,12 +22,13 @@ pub struct CameraParams {
     /// Focal length, px.
     pub focal_px: f64,
     /// Depth below which the LED ring can no longer be fitted, m (judgement: the ring
-    /// leaves the field of view and the fit degrades inside about a metre; paper-notes item 7).
+    /// leaves the field of view and the fit degrades inside about a metre; docs/paper.md,
+    /// item 7).
     pub min_range_m: f64,
 }
 
 impl Default for CameraParams {
-    /// 640 x 480 px, f = 500 px (model-data.md, "Camera"), blind inside 0.5 m.
+    /// 640 x 480 px, f = 500 px (docs/models.md, "Camera"), blind inside 0.5 m.
     fn default() -> Self {
         Self {
             width_px: 640.0,

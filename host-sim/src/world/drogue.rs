@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 
 /// Nominal drogue position behind the tanker (steady trail of the hose), tanker frame, m
-/// (model-data.md, from the authors' simulation).
+/// (docs/models.md, "Flight condition and frames"; from the authors' simulation).
 pub const NOMINAL_DROGUE_TANKER_M: [f64; 3] = [-14.35, 0.0, 5.12];
 
 /// Capture radius of the drogue around its centre, m (the authors' docking check).

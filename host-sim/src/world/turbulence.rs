@@ -1,7 +1,7 @@
 //! Dryden atmospheric turbulence (MIL-F-8785C form): a seeded, exactly discretised gust
 //! generator and a frozen-field (Taylor) sampler along the tanker's x axis.
 //!
-//! Source: model-data.md "Turbulence" [MIL]. Each gust component is continuous white noise
+//! Source: docs/models.md, "Turbulence" [MIL]. Each gust component is continuous white noise
 //! through a shaping filter (`T = L / V`):
 //!
 //! ```text
@@ -52,17 +52,19 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-/// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m (MIL-F-8785C, model-data.md).
+/// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
+/// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
-/// Tanker airspeed of the refuelling condition, m/s (model-data.md, [R]).
+/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; [R]).
 pub const TRIM_AIRSPEED_MPS: f64 = 120.0;
 /// Preset "level I" (the paper's light turbulence, about 5 ft/s peak): sigma, m/s
-/// (judgement, model-data.md: peaks near 3 sigma).
+/// (judgement, docs/models.md, "Turbulence": peaks near 3 sigma).
 pub const LEVEL1_SIGMA_MPS: f64 = 0.5;
-/// Preset "level II" (the paper's, about 7 ft/s peak): sigma, m/s (judgement, model-data.md).
+/// Preset "level II" (the paper's, about 7 ft/s peak): sigma, m/s
+/// (judgement, docs/models.md, "Turbulence").
 pub const LEVEL2_SIGMA_MPS: f64 = 0.7;
 /// Preset "moderate": MIL-F-8785C high-altitude intensity at probability of exceedance 1e-2,
-/// about 3000 m (6.0 ft/s), m/s (model-data.md).
+/// about 3000 m (6.0 ft/s), m/s (docs/models.md, "Turbulence").
 pub const MODERATE_SIGMA_MPS: f64 = 1.8;
 /// MIL-F-8785C, Fig. 7 (high-altitude model): RMS turbulence intensity by altitude and
 /// probability of exceedance, as tabulated in JSBSim's `FGWinds.cpp` (`POE_Table`):

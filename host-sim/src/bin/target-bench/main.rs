@@ -1,7 +1,7 @@
 //! # target-bench: what the flight controller costs on its MCU, as one JSON document
 //!
 //! ```sh
-//! cargo run --release -p host-sim --bin target-bench                 # the JSON of issue 5
+//! cargo run --release -p host-sim --bin target-bench                 # the JSON document
 //! cargo run --release -p host-sim --bin target-bench -- --detail     # plus every workload
 //! cargo run --release -p host-sim --bin target-bench -- --check benchmarks/expected.json
 //! ```
@@ -42,7 +42,8 @@
 //! check), the control-path stack and the flash of each board with the expectations in FILE
 //! (`benchmarks/expected.json`) and exits with status 1 when one grew past its expectation
 //! plus the file's tolerance, or when a figure exceeds its hard budget (the file's
-//! `budgets`: issue 5's flash, static RAM and stack targets).
+//! `budgets`: the flash, static RAM and stack targets set when the firmware was first
+//! benchmarked, docs/benchmarks.md).
 
 mod elf;
 mod wcet;
@@ -282,7 +283,7 @@ const STEP_SYMBOL: &str = "ibvs_core::controller::Controller::step";
 /// The PBVS law, left out of the bound (the firmware flies IBVS).
 const PBVS_SYMBOL: &str = "ibvs_core::outer::pbvs";
 
-/// The JSON document (issue 5's keys per board, and the static bound).
+/// The JSON document (the per-board figures of docs/benchmarks.md, and the static bound).
 #[derive(Serialize)]
 struct Report {
     qemu: BoardReport,
@@ -498,8 +499,8 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
             "check {board}.{metric}: measured {got}, expected {want} (+{tolerance} %): {verdict}"
         );
     }
-    // Hard budgets (issue 5's targets): a figure over its budget fails whatever its
-    // expectation says, so raising an expectation cannot hide it.
+    // Hard budgets (the targets set when the firmware was first benchmarked): a figure over
+    // its budget fails whatever its expectation says, so raising an expectation cannot hide it.
     if let Some(budgets) = expected["budgets"].as_object() {
         for (key, budget) in budgets {
             let budget = budget
