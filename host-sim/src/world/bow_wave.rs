@@ -1,7 +1,7 @@
 //! The bow wave: the force the receiver's forebody flow field exerts on the drogue as the
 //! probe approaches it, from the authors' closed-form fit.
 //!
-//! Source: docs/models.md, "Bow wave" ([D] Dai, Wei & Quan 2016; the closed form used in [R]).
+//! Source: docs/models.md, "Bow wave" (\[D\] Dai, Wei & Quan 2016; the closed form used in \[R\]).
 //! With `(x, y, z)` = drogue position minus (receiver CG + [3.75, 0, -0.86] m), tanker axes
 //! (x forward, y right, z down), m, the force on the drogue in tanker axes, N, is
 //!
@@ -44,7 +44,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Nose reference point relative to the receiver CG, tanker axes, m (docs/models.md,
-/// "Bow wave"; [R]).
+/// "Bow wave"; \[R\]).
 pub const NOSE_REF_FROM_CG_M: [f64; 3] = [3.75, 0.0, -0.86];
 
 // Fit coefficients (docs/models.md, "Bow wave"). Lengths in m, forces in N.

@@ -1,7 +1,7 @@
 //! Dryden atmospheric turbulence (MIL-F-8785C form): a seeded, exactly discretised gust
 //! generator and a frozen-field (Taylor) sampler along the tanker's x axis.
 //!
-//! Source: docs/models.md, "Turbulence" [MIL]. Each gust component is continuous white noise
+//! Source: docs/models.md, "Turbulence" \[MIL\]. Each gust component is continuous white noise
 //! through a shaping filter (`T = L / V`):
 //!
 //! ```text
@@ -55,7 +55,7 @@ use serde::{Deserialize, Serialize};
 /// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
 /// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
-/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; [R]).
+/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]).
 pub const TRIM_AIRSPEED_MPS: f64 = 120.0;
 /// Preset "level I" (the paper's light turbulence, about 5 ft/s peak): sigma, m/s
 /// (judgement, docs/models.md, "Turbulence": peaks near 3 sigma).
