@@ -187,8 +187,8 @@ pub struct ModeConfig {
     /// exceed `velocity_limits.max_closing_mps`. Default 2.3 m/s: 0.3 m/s above the largest
     /// commanded closing speed (2.0), and below 2.6 m/s (5 kt, the upper end of the
     /// operational contact band; docs/models.md, "Docking check"), so that the breakaway
-    /// starts before the speed leaves the band. No run of the 1,000-run `paper-level2` and
-    /// `paper-bow-wave` campaigns exceeds even 2.05 m/s (docs/faults.md).
+    /// starts before the speed leaves the band. The closing speed at the drogue plane of the
+    /// 10,000-run `level2` campaign is at most 1.28 m/s (docs/scenarios.md).
     pub overspeed_mps: f32,
     /// Breakaway: largest change of the desired velocity, m/s², each axis (the approach's
     /// is `velocity_limits.max_accel_mps2`). A breakaway is the manoeuvre that must not be

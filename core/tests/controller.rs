@@ -1,5 +1,8 @@
 //! Behaviour tests of the docking controller through its public API only, flying the
-//! paper's procedure (the refuelling procedure's are in `tests/procedure.rs`).
+//! paper's procedure. The refuelling procedure's transitions are checked step by step
+//! against an independent model of its table in `fuzz_step.rs` (with a test that the
+//! generated sorties reach every row of the table), and closed loop in `host-sim/tests/faults.rs`
+//! and `tests/tests/docking.rs`.
 //!
 //! Each test drives [`Controller::step`] through one behaviour of the response specification
 //! in the `controller` module doc and the transition table in the `mode` module doc: engaging,

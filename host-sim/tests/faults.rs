@@ -179,7 +179,7 @@ fn a_dropout_in_the_capture_is_coasted_on_the_estimator() {
 
 #[test]
 fn led_occlusion_down_to_three_leds_keeps_tracking_and_fewer_are_held_then_break_away() {
-    // (Untracked frames are counted in every mode: the calm run has some in the blind phase.)
+    // (Untracked frames are counted in every mode: the calm run has one, in standby.)
     let base = fly(&[]).counters.not_tracked;
     // Five of eight LEDs hidden (0..4): the circle through the other three is still fitted.
     let f = fly(&[SimFault::at_range(
@@ -397,8 +397,9 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     ];
     for (f, reason, what) in &cases {
         assert_broke_away(f, reason, what);
-        // With the throttle stuck nothing stops the closing: the breakaway's descent takes the
-        // probe under the drogue, 1.45 m from its centre (the canopy's radius is 0.31 m).
+        // With the throttle stuck nothing stops the closing: the probe passes the drogue plane
+        // after the breakaway, more than 1 m from the centre (measured 1.30 m above it; the
+        // canopy's radius is 0.31 m).
         if let Some(c) = f.run.contact {
             assert!(
                 *what == "throttle stuck",
@@ -422,7 +423,8 @@ fn a_slow_throttle_does_not_end_in_an_unsafe_state() {
             f64::INFINITY,
         )]);
         // The receiver cannot slow down: it closes faster than the overspeed limit (2.3 m/s)
-        // and breaks away, passing below the drogue, clear of the canopy.
+        // and breaks away, passing the drogue clear of the canopy (measured 0.99 m above it
+        // at 0.05/s).
         assert_broke_away(&f, "Overspeed", &format!("throttle at {rate_per_s}/s"));
     }
 }
