@@ -139,15 +139,6 @@ pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
     q: SVector<f32, NY>,
 }
 
-/// Result of one channel step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ChannelStep<const NU: usize> {
-    /// Requested absolute inputs (trim plus perturbation), before saturation.
-    pub u_requested: [f32; NU],
-    /// True when at least one integrator was frozen by anti-windup.
-    pub frozen: bool,
-}
-
 /// `row . x`, summed left to right from `row[0] x[0]` (nalgebra's `gemv` order). `N >= 1`.
 #[inline(always)]
 fn dot<const N: usize>(row: &[f32; N], x: &[f32; N]) -> f32 {

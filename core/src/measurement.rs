@@ -57,6 +57,23 @@ pub enum MeasurementError {
     Frozen,
 }
 
+impl core::fmt::Display for MeasurementError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NotTracked => "the tracker reported no lock",
+            Self::NonFinite => "image point or depth not finite",
+            Self::DepthNotPositive => "depth zero or negative",
+            Self::DepthTooLarge => "depth beyond the largest credible",
+            Self::OutsideFieldOfView => "image point outside the field of view",
+            Self::Repeated => "no new frame (same sequence number)",
+            Self::OutOfOrder => "frame older than the last one",
+            Self::Frozen => "frame identical to the last valid one (frozen tracker)",
+        })
+    }
+}
+
+impl core::error::Error for MeasurementError {}
+
 /// Plausibility limits for a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -545,11 +545,13 @@ impl ModeMachine {
     }
 
     /// Advances the machine by one step of `ts_s` seconds, for the paper's procedure (the
-    /// tests' entry point; the controller calls [`ModeMachine::advance`]). Returns true when
+    /// unit tests' entry point, compiled for them only; the controller calls
+    /// [`ModeMachine::advance`]). Returns true when
     /// `Engage` was requested in standby but refused (no valid measurement or navigation).
     /// `vel`: the velocity limits (the blind phase's closing speed and the saturation of its
     /// aiming command).
-    pub fn update(
+    #[cfg(test)]
+    pub(crate) fn update(
         &mut self,
         inp: &ModeInputs,
         cfg: &ModeConfig,

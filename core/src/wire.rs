@@ -311,6 +311,8 @@ impl core::fmt::Display for WireError {
     }
 }
 
+impl core::error::Error for WireError {}
+
 /// COBS-encodes `src` into `dst`; returns the encoded length (no terminating zero). Minimal
 /// encoding: `src.len() + 1` bytes for up to 254 bytes, one more per further block of 254.
 fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Result<usize, WireError> {
