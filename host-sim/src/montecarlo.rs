@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::docking::{CLOSING_BAND_MPS, FAST_PASS_CLEARANCE_M};
 use crate::output::OutputError;
-use crate::plot::{self, PALETTE};
+use crate::plot::{self, PALETTE, dbg};
 use crate::scenario::{DispersionSection, ScenarioError, ScenarioFile};
 use crate::sim::{self, Outcome, Run};
 use crate::world::drogue::CAPTURE_RADIUS_M;
@@ -265,6 +265,8 @@ pub struct RunInputs {
     pub mount_pitch_error_deg: f64,
     /// Receiver cg, fraction of the mean chord.
     pub xcg: f64,
+    /// Navigation latency, control steps (`None`: perfect navigation).
+    pub nav_latency_steps: Option<u32>,
 }
 
 impl RunInputs {
@@ -278,6 +280,10 @@ impl RunInputs {
             mount_error_m: f.camera.mount_error_m,
             mount_pitch_error_deg: f.camera.mount_pitch_error_deg,
             xcg: f.receiver.xcg,
+            nav_latency_steps: match f.navigation.model {
+                crate::scenario::NavModel::Ins => Some(f.navigation.ins.latency_steps),
+                crate::scenario::NavModel::Ideal => None,
+            },
         }
     }
 }
@@ -846,10 +852,6 @@ pub fn summarise(
     }
 }
 
-fn dbg<E: fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
-}
-
 /// A class of runs in a scatter plot: label, colour, points.
 type Group<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
 
@@ -1200,6 +1202,17 @@ mod tests {
         assert_eq!(quantile(&v, 1.0), Some(4.0));
         assert!((quantile(&v, 0.95).unwrap() - 3.85).abs() < 1e-12);
         assert_eq!(quantile(&[], 0.5), None);
+    }
+
+    #[test]
+    fn a_run_record_carries_the_navigation_latency_it_flew() {
+        let f = ScenarioFile::load("level2").expect("preset");
+        let seen: std::collections::BTreeSet<Option<u32>> = (0..20)
+            .map(|i| RunInputs::of(&f.dispersed(i)).nav_latency_steps)
+            .collect();
+        assert_eq!(seen, [Some(1), Some(2)].into_iter().collect());
+        let paper = ScenarioFile::load("paper-level2").expect("preset");
+        assert_eq!(RunInputs::of(&paper.dispersed(0)).nav_latency_steps, None);
     }
 
     #[test]

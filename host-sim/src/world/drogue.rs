@@ -1,5 +1,5 @@
-//! The drogue. In this slice it is held at its nominal steady trail position; the multi-link
-//! hose and drogue dynamics replace it later behind the same interface.
+//! The ideal world's drogue: held at its nominal steady trail position. The full world's
+//! drogue is the last node of the multi-link hose (`world::hose`), behind the same interface.
 //!
 //! Invariant: positions are in the tanker frame (x forward, y right, z down), metres.
 
