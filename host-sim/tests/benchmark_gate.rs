@@ -6,8 +6,9 @@
 //! It runs the benchmark runner (`target-bench --check`): every recorded docking workload
 //! replayed through the `qemu` firmware in QEMU (exact instruction counts), the ELFs' sizes.
 //! The firmware ELFs: `IBVS_FIRMWARE_ELF` (qemu board) and `IBVS_FIRMWARE_F405_ELF` (f405
-//! board) when set, as `scripts/test-all.sh` does; otherwise the runner builds them in their
-//! own target directories. Needs `qemu-system-arm`, like the PIL tests.
+//! board) when set, as `scripts/test-all.sh` does; otherwise the default build paths
+//! (`target/thumbv7em-none-eabihf/release/firmware`, `target/f405/...`), which must exist:
+//! the runner builds nothing. Needs `qemu-system-arm`, like the PIL tests.
 //!
 //! When a change makes a figure grow on purpose, update the expectation in the same change
 //! (`docs/benchmarks.md`, "Updating the expectations"): that is the reviewed decision.

@@ -424,12 +424,8 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
     Ok(r)
 }
 
-/// Builds the `f405` board (release) into its own target directory; the ELF.
-fn build_f405() -> Result<PathBuf, Error> {
-    let dir = pil::target_dir().join("bench-firmware-f405");
-    pil::build_firmware_with(&dir, &["--no-default-features", "--features", "f405"])
-        .map_err(|e| format!("building the f405 firmware failed:\n{e}").into())
-}
+/// The command that builds the `f405` board's ELF where [`f405_elf`] looks by default.
+const F405_BUILD_COMMAND: &str = "cargo build -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features f405 --target-dir target/f405";
 
 fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     match arg {
@@ -438,10 +434,27 @@ fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     }
 }
 
+/// The `f405` board's ELF: `--f405-elf`, else `IBVS_FIRMWARE_F405_ELF`, else
+/// `<target>/f405/thumbv7em-none-eabihf/release/firmware`; it must exist (nothing is built
+/// here), and a missing one is an error naming [`F405_BUILD_COMMAND`].
 fn f405_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
-    match arg.or_else(|| std::env::var_os(F405_ELF_ENV).map(PathBuf::from)) {
-        Some(p) => Ok(p),
-        None => build_f405(),
+    let p = arg
+        .or_else(|| std::env::var_os(F405_ELF_ENV).map(PathBuf::from))
+        .unwrap_or_else(|| {
+            pil::target_dir()
+                .join("f405")
+                .join(pil::FIRMWARE_TARGET)
+                .join("release")
+                .join("firmware")
+        });
+    if p.is_file() {
+        Ok(p)
+    } else {
+        Err(format!(
+            "f405 firmware ELF not found: {} (build it with `{F405_BUILD_COMMAND}`, or name one in {F405_ELF_ENV})",
+            p.display()
+        )
+        .into())
     }
 }
 
