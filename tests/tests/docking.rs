@@ -2,7 +2,7 @@
 //! the PBVS baseline fly the nonlinear F-16 into the drogue from the paper's start and ten
 //! others, and the same scenario gives the same run.
 
-use hil_tests::{STARTS_M, dock, docking_failure};
+use closed_loop_tests::{STARTS_M, dock, docking_failure};
 use ibvs_core::{ControllerConfig, Mode, OuterLaw};
 use rayon::prelude::*;
 
