@@ -25,8 +25,9 @@ mod trim;
 mod units;
 
 pub use actuators::{ActuatorParams, SurfaceLimits};
+pub use aero::ReferenceGeometry;
 pub use data::ModelError;
-pub use model::{AirData, BodyLoads, F16, ReferenceGeometry};
+pub use model::{AirData, BodyLoads, F16};
 pub use state::{
     ReceiverCommand, ReceiverState, STATE_DIM, StateVector, Surfaces, Wind, state_index,
 };
