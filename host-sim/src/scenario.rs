@@ -23,10 +23,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::sim::{PAPER_START_M, Scenario};
+use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
 use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
+use crate::world::camera::CameraParams;
+use crate::world::hose::HoseParams;
+use crate::world::led_camera::LedCameraParams;
 use crate::world::nav::InsErrors;
 use crate::world::turbulence::TurbulencePreset;
+use crate::world::wake::WakeParams;
 
 /// Which outer loop flies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
@@ -909,9 +913,43 @@ impl ScenarioFile {
         cfg
     }
 
-    /// The simulator's scenario.
+    /// The simulator's scenario: the one conversion from a scenario file to what a run
+    /// flies (every key not named here keeps [`Scenario::ideal`]'s value).
     pub fn scenario(&self) -> Scenario {
-        Scenario::from_file(self)
+        let f = self;
+        let c = &f.camera;
+        Scenario {
+            name: f.name.clone(),
+            seed: f.seed,
+            start_offset_m: nalgebra::Vector3::from(f.initial.drogue_minus_probe_m),
+            duration_s: f.duration_s,
+            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
+            camera: match c.model {
+                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
+                CameraModel::Led => CameraChoice::Led(LedCameraParams {
+                    pixel_noise_px: c.pixel_noise_px,
+                    latency_frames: c.latency_frames,
+                    rate_hz: c.rate_hz,
+                    drop_probability: c.drop_probability,
+                    ..LedCameraParams::default()
+                }),
+            },
+            turbulence_sigma_mps: f.sigma_mps(),
+            camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
+            wake: f.tanker_wake.enabled.then(WakeParams::default),
+            bow_wave: f.bow_wave.enabled,
+            xcg: f.receiver.xcg,
+            camera_body_m: c.placement.position_body_m(),
+            navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
+            ..Scenario::ideal()
+        }
+    }
+}
+
+impl Default for Scenario {
+    /// The default scenario file's: paper start, calm air, wake, hose, LED camera.
+    fn default() -> Self {
+        ScenarioFile::default().scenario()
     }
 }
 

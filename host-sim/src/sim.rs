@@ -21,7 +21,6 @@ use serde::Serialize;
 
 use crate::docking::{Contact, PlaneCrossing};
 use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError};
-use crate::scenario::{CameraModel, DrogueModel, NavModel, ScenarioFile};
 use crate::synthesis::{
     CONTROL_PERIOD_S, NOMINAL_XCG, PROBE_TIP_BODY_M, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS,
 };
@@ -133,43 +132,6 @@ impl Scenario {
             bow_wave: false,
             navigation: None,
         }
-    }
-
-    /// The simulator's scenario for a scenario file.
-    pub fn from_file(f: &ScenarioFile) -> Self {
-        let c = &f.camera;
-        Self {
-            name: f.name.clone(),
-            seed: f.seed,
-            start_offset_m: Vector3::from(f.initial.drogue_minus_probe_m),
-            duration_s: f.duration_s,
-            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
-            camera: match c.model {
-                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
-                CameraModel::Led => CameraChoice::Led(LedCameraParams {
-                    pixel_noise_px: c.pixel_noise_px,
-                    latency_frames: c.latency_frames,
-                    rate_hz: c.rate_hz,
-                    drop_probability: c.drop_probability,
-                    ..LedCameraParams::default()
-                }),
-            },
-            turbulence_sigma_mps: f.sigma_mps(),
-            camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
-            wake: f.tanker_wake.enabled.then(WakeParams::default),
-            bow_wave: f.bow_wave.enabled,
-            xcg: f.receiver.xcg,
-            camera_body_m: c.placement.position_body_m(),
-            navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
-            ..Self::ideal()
-        }
-    }
-}
-
-impl Default for Scenario {
-    /// The default scenario file's: paper start, calm air, wake, hose, LED camera.
-    fn default() -> Self {
-        Self::from_file(&ScenarioFile::default())
     }
 }
 
