@@ -283,7 +283,10 @@ impl Default for ScenarioFile {
         Self {
             name: "default".into(),
             seed: 1,
-            duration_s: 120.0,
+            // Longer than the refuelling procedure's 150 s sortie budget plus a breakaway, so
+            // that every run ends in a docking, a strike or a breakaway, never in the
+            // simulator's own time limit.
+            duration_s: 160.0,
             procedure: Procedure::Refuelling,
             controller: Law::Ibvs,
             gains: GainsSection {
