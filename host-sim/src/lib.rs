@@ -24,6 +24,7 @@ pub mod paper;
 pub mod pil;
 pub mod plot;
 pub mod receiver;
+pub mod record;
 pub mod scenario;
 pub mod sim;
 pub mod synthesis;
