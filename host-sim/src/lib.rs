@@ -17,6 +17,7 @@
 //! Invariant: every random process takes a seed (none in this slice: calm air, ideal camera).
 
 pub mod docking;
+pub mod flight_log;
 pub mod linearize;
 pub mod montecarlo;
 pub mod output;
