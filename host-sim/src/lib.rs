@@ -12,10 +12,13 @@
 //! It also designs the controller: [`receiver`] trims, [`linearize`] linearises,
 //! [`synthesis`] discretises and solves the Riccati equations, and writes the core's
 //! generated gains module. [`docking`] decides what counts as a dock; [`output`] writes the
-//! CSV, JSON and plots of a run.
+//! CSV, JSON and plots of a run; [`record`] records a run in full (inputs, hose, camera image,
+//! link frames), from which [`flight_log`] writes the MCAP flight-test log and [`animate`] the
+//! GIF.
 //!
 //! Invariant: every random process takes a seed (none in this slice: calm air, ideal camera).
 
+pub mod animate;
 pub mod docking;
 pub mod flight_log;
 pub mod linearize;

@@ -40,6 +40,9 @@ pub enum OutputError {
     /// MCAP encoding (the flight-test log).
     #[error("MCAP: {0}")]
     Mcap(#[from] mcap::McapError),
+    /// GIF encoding (the animation).
+    #[error("GIF: {0}")]
+    Gif(#[from] gif::EncodingError),
     /// Two things that must have the same length do not.
     #[error("{what}: {left} against {right}")]
     Mismatch {
