@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Where the control step's instructions go, by function and source line, on the emulated MCU.
 
-Usage (after `cargo build -p firmware --target thumbv7em-none-eabihf --release`):
+Usage (after `cargo build -p firmware --target thumbv7em-none-eabihf --release --features bench`):
 
     scripts/profile-step.py [ELF]
 

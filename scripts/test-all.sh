@@ -7,26 +7,39 @@
 #   2. both firmware boards cross-built: the core links for the STM32F405 with no allocator
 #      (a use of `alloc` would fail this link);
 #   3. the qemu board run in QEMU's netduinoplus2 (an emulated STM32F405): its power-on
-#      self-test steps the controller once and exits 0 only if the step was right;
-#   4. formatting check;
+#      self-test steps the controller once and exits 0 only if the step was right; then the
+#      qemu board built with the path benchmark, whose scripted sortie must visit every path;
+#   4. formatting, lints (clippy on every target, warnings denied) and the API docs (rustdoc,
+#      warnings denied: a broken intra-doc link fails);
 #   5. every test, benchmark (run once, as a test) and doc test of the workspace on the host,
 #      the processor-in-the-loop tests flying the ELF of step 2 inside QEMU.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 rustup target add thumbv7em-none-eabihf
-rustup component add rustfmt
+rustup component add rustfmt clippy
 command -v flip-link >/dev/null || cargo install flip-link --locked
 if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump >/dev/null; then
     apt-get update
-    apt-get install -y qemu-system-arm binutils-arm-none-eabi
+    apt-get install -y --no-install-recommends qemu-system-arm binutils-arm-none-eabi
 fi
 
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release \
     --no-default-features --features f405 --target-dir target/f405
 timeout 120 cargo run --locked -p firmware --target thumbv7em-none-eabihf --release
+# The path benchmark (the `bench` feature, off in the flight build): its scripted sortie must
+# visit every path of the step on the emulated MCU ("script_ok": true).
+cargo build --locked -p firmware --target thumbv7em-none-eabihf --release --features bench \
+    --target-dir target/qemu-bench
+timeout 120 qemu-system-arm -machine netduinoplus2 -cpu cortex-m4 -icount shift=0 \
+    -display none -monitor none -serial null \
+    -semihosting-config enable=on,target=native,arg=firmware,arg=bench \
+    -kernel target/qemu-bench/thumbv7em-none-eabihf/release/firmware | tee target/qemu-bench/bench.txt
+grep -q '"script_ok": true' target/qemu-bench/bench.txt
 cargo fmt --all -- --check
+cargo clippy --locked --workspace --all-targets -- -D warnings
+RUSTDOCFLAGS="-D warnings" cargo doc --locked --workspace --no-deps
 export IBVS_FIRMWARE_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
 export IBVS_FIRMWARE_F405_ELF="$PWD/target/f405/thumbv7em-none-eabihf/release/firmware"
 cargo test --locked --workspace --all-targets

@@ -28,6 +28,7 @@ fn messages() -> (Uplink, Downlink) {
             image_x: 0.31,
             image_y: -0.29,
             depth_m: 5.6,
+            probe_tip: None,
         },
         nav: NavSample::from_array([
             0.3, -0.2, 0.012, 0.4, 0.008, 0.003, 0.5, 0.004, -0.01, 0.002, 0.003, -0.002,

@@ -1,8 +1,9 @@
 //! Criterion benchmark of one [`Controller::step`] on the host.
 //!
 //! What is measured is the wall time of a single control step (validation, outer loop, mode
-//! logic, slew, both inner loops, saturation, status and counters), in three situations:
-//! - `step/ibvs_approach_valid_frame`: steady approach under the IBVS law. The controller is
+//! logic, slew, both inner loops, saturation, status and counters), in four situations:
+//! - `step/ibvs_approach_valid_frame`: steady approach under the paper's IBVS law and
+//!   procedure ([`ControllerConfig::paper`]). The controller is
 //!   engaged and warmed up first; every iteration then steps the same controller with the next
 //!   frame (advancing sequence number) and a slowly varying image point, depth and navigation
 //!   sample, so the step is neither constant-folded nor cached. There is no plant in the
@@ -13,7 +14,11 @@
 //!   `hold_limit_steps` steps, so every iteration steps a fresh clone of a controller that is
 //!   already a few steps into a hold; the clone is made outside the timed region;
 //! - `step/pbvs_approach_valid_frame`: as the first, under the PBVS law (3-D reconstruction
-//!   through the camera mount and the navigation attitude).
+//!   through the camera mount and the navigation attitude);
+//! - `step/refuelling_pre_contact_valid_frame`: the refuelling procedure (the default
+//!   configuration) holding its pre-contact station, with the drogue estimator and the
+//!   station-keeping outer loop running on every frame. The drogue of these inputs sits off
+//!   the station, so the dwell never completes and every step is a pre-contact step.
 //!
 //! Run with `cargo bench -p ibvs-core --bench step`. The numbers are host numbers (the bench
 //! profile: optimised, LTO), a relative measure only; the flight target is not measured here.
@@ -52,6 +57,7 @@ fn varying_inputs() -> Vec<ControllerInput> {
                     image_x: 0.2 + 0.05 * s,
                     image_y: -0.1 + 0.03 * c,
                     depth_m: 6.0 + 0.5 * s,
+                    probe_tip: None,
                 },
                 nav,
                 probe_contact: false,
@@ -61,9 +67,9 @@ fn varying_inputs() -> Vec<ControllerInput> {
         .collect()
 }
 
-/// A controller engaged on `inputs[0]` and stepped once through every input; returns it with
-/// the last sequence number used.
-fn engaged(cfg: ControllerConfig, inputs: &[ControllerInput]) -> (Controller, u32) {
+/// A controller engaged on `inputs[0]` and stepped once through every input, checked to be in
+/// `mode` after the warm-up; returns it with the last sequence number used.
+fn engaged(cfg: ControllerConfig, inputs: &[ControllerInput], mode: Mode) -> (Controller, u32) {
     let mut ctl = Controller::new(cfg).expect("valid configuration");
     let mut seq = 0_u32;
     let engage = ControllerInput {
@@ -77,18 +83,19 @@ fn engaged(cfg: ControllerConfig, inputs: &[ControllerInput]) -> (Controller, u3
         i.measurement.seq = seq;
         ctl.step(&i);
     }
-    assert_eq!(
-        ctl.mode(),
-        Mode::Approach,
-        "the warm-up must stay in approach"
-    );
+    assert_eq!(ctl.mode(), mode, "the warm-up must end in {mode:?}");
     (ctl, seq)
 }
 
-/// Steady approach steps with valid frames under `cfg`'s law.
-fn bench_valid(group: &mut BenchmarkGroup<'_, WallTime>, name: &str, cfg: ControllerConfig) {
+/// Steady steps in `mode` with valid frames under `cfg`.
+fn bench_valid(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    cfg: ControllerConfig,
+    mode: Mode,
+) {
     let inputs = varying_inputs();
-    let (mut ctl, mut seq) = engaged(cfg, &inputs);
+    let (mut ctl, mut seq) = engaged(cfg, &inputs, mode);
     let mut k = 0_usize;
     group.bench_function(name, |b| {
         b.iter(|| {
@@ -99,13 +106,13 @@ fn bench_valid(group: &mut BenchmarkGroup<'_, WallTime>, name: &str, cfg: Contro
             ctl.step(black_box(&input))
         });
     });
-    assert_eq!(ctl.mode(), Mode::Approach, "benchmarked outside approach");
+    assert_eq!(ctl.mode(), mode, "benchmarked outside {mode:?}");
 }
 
 /// Approach steps on the hold path (frame not tracked, last valid command held).
 fn bench_hold(group: &mut BenchmarkGroup<'_, WallTime>) {
     let inputs = varying_inputs();
-    let (mut ctl, mut seq) = engaged(ControllerConfig::default(), &inputs);
+    let (mut ctl, mut seq) = engaged(ControllerConfig::paper(), &inputs, Mode::Approach);
     let lost = |seq: u32, k: usize| {
         let mut i = inputs[k];
         i.measurement.seq = seq;
@@ -141,7 +148,8 @@ fn benches(c: &mut Criterion) {
     bench_valid(
         &mut group,
         "ibvs_approach_valid_frame",
-        ControllerConfig::default(),
+        ControllerConfig::paper(),
+        Mode::Approach,
     );
     bench_hold(&mut group);
     bench_valid(
@@ -149,8 +157,15 @@ fn benches(c: &mut Criterion) {
         "pbvs_approach_valid_frame",
         ControllerConfig {
             law: OuterLaw::Pbvs,
-            ..ControllerConfig::default()
+            ..ControllerConfig::paper()
         },
+        Mode::Approach,
+    );
+    bench_valid(
+        &mut group,
+        "refuelling_pre_contact_valid_frame",
+        ControllerConfig::default(),
+        Mode::PreContact,
     );
     group.finish();
 }

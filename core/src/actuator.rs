@@ -48,7 +48,7 @@ impl ActuatorCommand {
 
 /// Position limits of each command, absolute.
 ///
-/// Defaults are the F-16's (Stevens, Lewis & Johnson App. A; `docs/model-data` sources):
+/// Defaults are the F-16's (Stevens, Lewis & Johnson App. A; docs/models.md, "Actuators"):
 /// elevator +/-25 deg, aileron +/-21.5 deg, rudder +/-30 deg, throttle 0..1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

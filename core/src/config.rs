@@ -11,12 +11,15 @@
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::ActuatorLimits;
+use crate::estimator::EstimatorConfig;
 use crate::gains;
-use crate::kinematics::CameraMount;
+use crate::kinematics::{CameraMount, SET_BACK_CAMERA_BODY_M};
 use crate::measurement::MeasurementLimits;
 use crate::mode::ModeConfig;
 use crate::nav::NavEnvelope;
+use crate::num::{SIN_COS_MAX_RAD, max_to};
 use crate::outer::{IbvsGains, PbvsGains, PbvsGeometry, VelocityLimits};
+use crate::procedure::{Procedure, RefuellingConfig};
 
 /// Which outer loop flies the approach.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -33,7 +36,9 @@ pub enum OuterLaw {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerConfig {
-    /// Outer loop in use.
+    /// The procedure flown: the paper's single shot or the refuelling procedure.
+    pub procedure: Procedure,
+    /// Outer loop of the paper's procedure.
     pub law: OuterLaw,
     /// IBVS gains.
     pub ibvs: IbvsGains,
@@ -55,6 +60,10 @@ pub struct ControllerConfig {
     pub actuators: ActuatorLimits,
     /// Bound on each inner-loop integrator (a position error), m.
     pub integrator_limit_m: f32,
+    /// The refuelling procedure.
+    pub refuelling: RefuellingConfig,
+    /// The drogue estimator (refuelling procedure).
+    pub estimator: EstimatorConfig,
 }
 
 /// What is wrong with a configuration value.
@@ -96,6 +105,7 @@ impl core::error::Error for ConfigError {}
 impl Default for ControllerConfig {
     fn default() -> Self {
         Self {
+            procedure: Procedure::Refuelling,
             law: OuterLaw::Ibvs,
             ibvs: IbvsGains {
                 k1_mps: 1.0,
@@ -121,7 +131,7 @@ impl Default for ControllerConfig {
                 max_accel_mps2: 0.5,
             },
             camera: CameraMount {
-                position_body_m: gains::DESIGN_CAMERA_BODY_M,
+                position_body_m: SET_BACK_CAMERA_BODY_M,
                 pitch_down_rad: gains::TRIM.theta_rad,
             },
             probe_tip_body_m: gains::DESIGN_CAMERA_BODY_M,
@@ -130,6 +140,8 @@ impl Default for ControllerConfig {
             modes: ModeConfig::default(),
             actuators: ActuatorLimits::default(),
             integrator_limit_m: 20.0,
+            refuelling: RefuellingConfig::default(),
+            estimator: EstimatorConfig::default(),
         }
     }
 }
@@ -159,6 +171,21 @@ fn require(field: &'static str, ok: bool) -> Result<(), ConfigError> {
 }
 
 impl ControllerConfig {
+    /// The default configuration flying the paper's procedure (approach, blind terminal
+    /// phase, docked or breakaway) with the paper's camera at the probe tip, instead of the
+    /// refuelling procedure with the set-back camera.
+    pub fn paper() -> Self {
+        let d = Self::default();
+        Self {
+            procedure: Procedure::Paper,
+            camera: CameraMount {
+                position_body_m: gains::DESIGN_CAMERA_BODY_M,
+                ..d.camera
+            },
+            ..d
+        }
+    }
+
     /// What PBVS believes about the geometry.
     pub fn pbvs_geometry(&self) -> PbvsGeometry {
         PbvsGeometry {
@@ -219,8 +246,8 @@ impl ControllerConfig {
             )?;
         }
         require(
-            "camera.pitch_down_rad (finite)",
-            self.camera.pitch_down_rad.is_finite(),
+            "camera.pitch_down_rad (finite, at most 0.8 rad either way)",
+            libm::fabsf(self.camera.pitch_down_rad) <= SIN_COS_MAX_RAD,
         )?;
         let m = &self.measurement;
         check("measurement.max_depth_m", m.max_depth_m, true)?;
@@ -236,6 +263,19 @@ impl ControllerConfig {
         check("nav_envelope.max_sideslip_rad", n.max_sideslip_rad, true)?;
         check("nav_envelope.max_speed_mps", n.max_speed_mps, true)?;
         check("nav_envelope.max_rate_radps", n.max_rate_radps, true)?;
+        // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range.
+        let trim = max_to(
+            libm::fabsf(gains::TRIM.theta_rad),
+            libm::fabsf(gains::TRIM.alpha_rad),
+        );
+        require(
+            "nav_envelope.max_angle_rad (plus the trim pitch and angle of attack, <= 0.8 rad)",
+            n.max_angle_rad + trim <= SIN_COS_MAX_RAD,
+        )?;
+        require(
+            "nav_envelope.max_bank_rad / max_sideslip_rad (<= 0.8 rad)",
+            n.max_bank_rad <= SIN_COS_MAX_RAD && n.max_sideslip_rad <= SIN_COS_MAX_RAD,
+        )?;
         let md = &self.modes;
         check("modes.terminal_depth_m", md.terminal_depth_m, true)?;
         check(
@@ -285,7 +325,182 @@ impl ControllerConfig {
             )?;
             require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
         }
-        check("integrator_limit_m", self.integrator_limit_m, true)
+        check("integrator_limit_m", self.integrator_limit_m, true)?;
+        self.validate_refuelling()?;
+        self.validate_estimator()
+    }
+
+    fn validate_refuelling(&self) -> Result<(), ConfigError> {
+        let r = &self.refuelling;
+        let l = &self.velocity_limits;
+        for (field, v) in [
+            ("refuelling.station_depth_m", r.station_depth_m),
+            ("refuelling.station_gain_per_s", r.station_gain_per_s),
+            ("refuelling.station_max_speed_mps", r.station_max_speed_mps),
+            ("refuelling.station_offset_tol_m", r.station_offset_tol_m),
+            ("refuelling.station_depth_tol_m", r.station_depth_tol_m),
+            ("refuelling.station_overrun_m", r.station_overrun_m),
+            (
+                "refuelling.station_drogue_speed_tol_mps",
+                r.station_drogue_speed_tol_mps,
+            ),
+            (
+                "refuelling.station_relative_speed_tol_mps",
+                r.station_relative_speed_tol_mps,
+            ),
+            ("refuelling.track_gain_per_s", r.track_gain_per_s),
+            ("refuelling.max_correction_mps", r.max_correction_mps),
+            ("refuelling.track_accel_mps2", r.track_accel_mps2),
+            ("refuelling.contact_speed_mps", r.contact_speed_mps),
+            ("refuelling.abort_offset_m", r.abort_offset_m),
+            ("refuelling.commit_depth_m", r.commit_depth_m),
+            ("refuelling.gate_radius_m", r.gate_radius_m),
+            ("refuelling.late_gate_radius_m", r.late_gate_radius_m),
+            ("refuelling.gate_max_horizon_s", r.gate_max_horizon_s),
+            ("refuelling.capture_timeout_s", r.capture_timeout_s),
+            (
+                "refuelling.capture_min_time_to_go_s",
+                r.capture_min_time_to_go_s,
+            ),
+            ("refuelling.overshoot_m", r.overshoot_m),
+            ("refuelling.missed_aft_mps", r.missed_aft_mps),
+            ("refuelling.missed_clear_s", r.missed_clear_s),
+            ("refuelling.missed_accel_mps2", r.missed_accel_mps2),
+            ("refuelling.reacquire_limit_s", r.reacquire_limit_s),
+            ("refuelling.sortie_budget_s", r.sortie_budget_s),
+        ] {
+            check(field, v, true)?;
+        }
+        for (field, v) in [
+            ("refuelling.station_dwell_s", r.station_dwell_s),
+            ("refuelling.feedforward_lead_s", r.feedforward_lead_s),
+            ("refuelling.feedforward_gain", r.feedforward_gain),
+            ("refuelling.gate_sigmas", r.gate_sigmas),
+            ("refuelling.missed_down_mps", r.missed_down_mps),
+        ] {
+            check(field, v, false)?;
+        }
+        require(
+            "refuelling.feedforward_lead_s (<= 5 s)",
+            r.feedforward_lead_s <= 5.0,
+        )?;
+        require(
+            "refuelling.gate_max_horizon_s (<= 1.5 x estimator.drogue_time_constant_s)",
+            r.gate_max_horizon_s <= 1.5 * self.estimator.drogue_time_constant_s,
+        )?;
+        require(
+            "refuelling.contact_speed_mps (<= velocity_limits.max_closing_mps)",
+            r.contact_speed_mps <= l.max_closing_mps,
+        )?;
+        require(
+            "refuelling.missed_aft_mps (<= velocity_limits.max_closing_mps)",
+            r.missed_aft_mps <= l.max_closing_mps,
+        )?;
+        require(
+            "refuelling.missed_down_mps (<= velocity_limits.max_vertical_mps)",
+            r.missed_down_mps <= l.max_vertical_mps,
+        )?;
+        require(
+            "refuelling.commit_depth_m (< station_depth_m)",
+            r.commit_depth_m < r.station_depth_m,
+        )?;
+        require(
+            "refuelling.station_overrun_m (station_depth_m - station_overrun_m > commit_depth_m)",
+            r.station_depth_m - r.station_overrun_m > r.commit_depth_m,
+        )?;
+        require(
+            "refuelling.station_overrun_m (> station_depth_tol_m)",
+            r.station_overrun_m > r.station_depth_tol_m,
+        )?;
+        require("refuelling.max_attempts (>= 1)", r.max_attempts >= 1)?;
+        require(
+            "refuelling.feedforward_gain (<= 1)",
+            r.feedforward_gain <= 1.0,
+        )?;
+        for (field, t) in [
+            ("refuelling.station_dwell_s (< 1 hour)", r.station_dwell_s),
+            (
+                "refuelling.capture_timeout_s (< 1 hour)",
+                r.capture_timeout_s,
+            ),
+            ("refuelling.missed_clear_s (< 1 hour)", r.missed_clear_s),
+            (
+                "refuelling.reacquire_limit_s (< 1 hour)",
+                r.reacquire_limit_s,
+            ),
+            (
+                "refuelling.sortie_budget_s (< 1 day)",
+                r.sortie_budget_s / 24.0,
+            ),
+        ] {
+            require(field, t < 3600.0)?;
+        }
+        Ok(())
+    }
+
+    fn validate_estimator(&self) -> Result<(), ConfigError> {
+        let e = &self.estimator;
+        for (field, v) in [
+            ("estimator.drogue_time_constant_s", e.drogue_time_constant_s),
+            ("estimator.drogue_accel_psd_m2ps3", e.drogue_accel_psd_m2ps3),
+            (
+                "estimator.drogue_fwd_time_constant_s",
+                e.drogue_fwd_time_constant_s,
+            ),
+            ("estimator.offset_noise_m", e.offset_noise_m),
+            ("estimator.depth_noise_m", e.depth_noise_m),
+            (
+                "estimator.initial_velocity_sigma_mps",
+                e.initial_velocity_sigma_mps,
+            ),
+            ("estimator.gate_sigmas", e.gate_sigmas),
+            ("estimator.tip_sight_tolerance", e.tip_sight_tolerance),
+            ("estimator.tip_sight_filter", e.tip_sight_filter),
+            ("estimator.mean_time_constant_s", e.mean_time_constant_s),
+            (
+                "estimator.activity_time_constant_s",
+                e.activity_time_constant_s,
+            ),
+        ] {
+            check(field, v, true)?;
+        }
+        for (field, v) in [
+            (
+                "estimator.drogue_fwd_accel_psd_m2ps3",
+                e.drogue_fwd_accel_psd_m2ps3,
+            ),
+            ("estimator.offset_noise_per_m", e.offset_noise_per_m),
+            ("estimator.depth_noise_per_m2", e.depth_noise_per_m2),
+        ] {
+            check(field, v, false)?;
+        }
+        require(
+            "estimator.tip_sight_filter (<= 1)",
+            e.tip_sight_filter <= 1.0,
+        )?;
+        // Time constants of at least a control period (the discrete models' poles stay away
+        // from zero and the averages from a single step).
+        for (field, t) in [
+            (
+                "estimator.drogue_time_constant_s (>= the control period)",
+                e.drogue_time_constant_s,
+            ),
+            (
+                "estimator.drogue_fwd_time_constant_s (>= the control period)",
+                e.drogue_fwd_time_constant_s,
+            ),
+            (
+                "estimator.activity_time_constant_s (>= the control period)",
+                e.activity_time_constant_s,
+            ),
+            (
+                "estimator.mean_time_constant_s (>= the control period)",
+                e.mean_time_constant_s,
+            ),
+        ] {
+            require(field, t >= gains::CONTROL_PERIOD_S)?;
+        }
+        Ok(())
     }
 }
 

@@ -23,17 +23,25 @@ use serde::{Deserialize, Serialize};
 
 use crate::actuator::{ActuatorCommand, Saturation};
 use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw, trim_command};
+use crate::estimator::{
+    DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight, TipSighting,
+};
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::gains::{self, CONTROL_PERIOD_S};
 use crate::inner::{Channel, EngineEstimate};
-use crate::kinematics::{lever_arm_lat, lever_arm_lon};
+use crate::kinematics::{lever_arm_lat, lever_arm_lon, point_velocity_tanker_mps};
 use crate::measurement::{
     CameraMeasurement, FreezeDetector, ImageFeature, LimitBits, MeasurementError, SequenceCheck,
     SequenceTracker,
 };
-use crate::mode::{BreakawayReason, Mode, ModeInputs, ModeLimits, ModeMachine, ModeRequest};
+use crate::mode::{
+    BreakawayReason, Mode, ModeInputs, ModeLimits, ModeMachine, ModeRequest, NoGoReason,
+    RefuelInputs,
+};
 use crate::nav::{EnvelopeBits, NavError, NavSample};
+use crate::num::max_to;
 use crate::outer::{self, OuterOutput};
+use crate::procedure::{self, Forward, Procedure};
 
 /// Everything the controller reads in one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -55,7 +63,8 @@ pub struct ControllerInput {
 pub struct StatusFlags(pub u16);
 
 impl StatusFlags {
-    /// The outer loop ran on a held command (measurement invalid this step, approach).
+    /// No valid measurement this step: the paper's approach ran on its held outer-loop
+    /// command, the refuelling procedure on its estimator's prediction.
     pub const MEASUREMENT_HELD: u16 = 1 << 0;
     /// The inner loops ran on the held navigation sample.
     pub const NAV_HELD: u16 = 1 << 1;
@@ -114,7 +123,7 @@ pub struct Counters {
     pub nav_non_finite: u32,
     /// [`NavError::OutsideEnvelope`] samples.
     pub nav_outside_envelope: u32,
-    /// Approach steps flown on a held outer-loop command.
+    /// Steps flagged [`StatusFlags::MEASUREMENT_HELD`].
     pub measurement_held_steps: u32,
     /// Engaged steps flown on a held navigation sample.
     pub nav_held_steps: u32,
@@ -126,6 +135,12 @@ pub struct Counters {
     pub integrator_frozen_steps: u32,
     /// Steps where a computed command was not finite (replaced by trim).
     pub non_finite_commands: u32,
+    /// Valid frames the drogue estimator's innovation gate rejected (refuelling).
+    pub estimator_rejected: u32,
+    /// Restarts of the drogue estimator from a frame after rejections or a non-finite update.
+    pub estimator_restarts: u32,
+    /// Probe-tip sightings rejected (not finite, or too far from where the geometry puts it).
+    pub tip_sight_rejected: u32,
 }
 
 impl Counters {
@@ -168,10 +183,21 @@ pub struct ControllerOutput {
     pub nav_error: Option<NavError>,
     /// Desired camera velocity relative to the drogue that the inner loops tracked, `re` axes.
     pub v_des: VelocityRe,
-    /// The outer loop's latest target estimate (held while the measurement is invalid).
+    /// Where the controller believes the drogue is: paper, the outer loop's latest target
+    /// (held while the measurement is invalid); refuelling, the estimator's offset and depth.
     pub target: TargetEstimate,
     /// Steps run, this one included (saturates, like [`Counters::steps`]).
     pub step: u32,
+    /// Refuelling: the approach being flown, 1-based (0 in standby and in the paper's
+    /// procedure).
+    pub attempt: u8,
+    /// Refuelling: why the last approach was abandoned, until the next one starts.
+    pub no_go: Option<NoGoReason>,
+    /// Refuelling: the drogue estimator's belief (zero in the paper's procedure).
+    pub estimate: DrogueEstimate,
+    /// Refuelling: the go/no-go gate's predicted radial miss at the drogue plane plus its
+    /// margin of standard deviations, m (approach and terminal; infinite elsewhere).
+    pub predicted_miss_m: f32,
 }
 
 /// What the step needs from the configuration, derived once at construction (the step
@@ -192,6 +218,14 @@ struct Derived {
     terminal_slew_step_mps: f32,
     /// Throttle of an open-loop breakaway (trim minus the cut).
     open_loop_throttle: f32,
+    /// The refuelling procedure's slew, per axis (right, down, forward), m/s per step.
+    refuel_slew_step_mps: [f32; 3],
+    /// The same in a missed approach, m/s.
+    missed_slew_step_mps: f32,
+    /// The drogue estimator's discrete model.
+    estimator: EstimatorModel,
+    /// The probe tip seen from the believed camera.
+    tip: TipGeometry,
 }
 
 impl Derived {
@@ -206,11 +240,28 @@ impl Derived {
                 .ok_or_else(|| inconsistent("nav_envelope"))?,
             measurement: LimitBits::new(&cfg.measurement)
                 .ok_or_else(|| inconsistent("measurement"))?,
-            modes: ModeLimits::new(&cfg.modes, &cfg.velocity_limits, Controller::PERIOD_S),
+            modes: ModeLimits::for_procedure(
+                &cfg.modes,
+                &cfg.velocity_limits,
+                cfg.procedure,
+                &cfg.refuelling,
+                Controller::PERIOD_S,
+            ),
             slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
             breakaway_slew_step_mps: cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S,
             terminal_slew_step_mps: cfg.modes.terminal_accel_mps2 * Controller::PERIOD_S,
             open_loop_throttle: trim_command()[1] - cfg.modes.breakaway_throttle_cut,
+            refuel_slew_step_mps: {
+                let track = cfg.refuelling.track_accel_mps2 * Controller::PERIOD_S;
+                [
+                    track,
+                    track,
+                    cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
+                ]
+            },
+            missed_slew_step_mps: cfg.refuelling.missed_accel_mps2 * Controller::PERIOD_S,
+            estimator: EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S),
+            tip: TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, gains::TRIM.theta_rad),
         })
     }
 }
@@ -224,6 +275,8 @@ pub struct Controller {
     engine: EngineEstimate,
     lat: Channel<5, 1, 2>,
     modes: ModeMachine,
+    estimator: DrogueEstimator,
+    tip_sight: TipSight,
     sequence: SequenceTracker,
     freeze: FreezeDetector,
     last_nav: NavSample,
@@ -241,18 +294,31 @@ impl Controller {
         cfg.validate()?;
         let derived = Derived::new(&cfg)?;
         let trim = trim_command();
-        let cam = cfg.camera.position_body_m;
+        // The point whose velocity the inner loops track: the camera in the paper's
+        // procedure (its lever arm is where the paper's camera-position experiment acts), the
+        // probe tip in the refuelling procedure (the point that must meet the drogue).
+        let tracked = match cfg.procedure {
+            Procedure::Paper => cfg.camera.position_body_m,
+            Procedure::Refuelling => cfg.probe_tip_body_m,
+        };
+        // Each procedure flies its own inner-loop design (`gains`).
+        let (lon, lat) = match cfg.procedure {
+            Procedure::Paper => (&gains::LON, &gains::LAT),
+            Procedure::Refuelling => (&gains::REFUEL_LON, &gains::REFUEL_LAT),
+        };
         Ok(Self {
             lon: Channel::new(
-                &gains::LON,
-                &lever_arm_lon(cam, gains::TRIM.theta_rad),
+                lon,
+                &lever_arm_lon(tracked, gains::TRIM.theta_rad),
                 [trim[0], trim[1]],
             ),
-            lat: Channel::new(&gains::LAT, &lever_arm_lat(cam), [trim[2], trim[3]]),
+            lat: Channel::new(lat, &lever_arm_lat(tracked), [trim[2], trim[3]]),
             engine: EngineEstimate::new(gains::ENGINE_MODEL),
             cfg,
             derived,
             modes: ModeMachine::default(),
+            estimator: DrogueEstimator::default(),
+            tip_sight: TipSight::new(&derived.tip),
             sequence: SequenceTracker::default(),
             freeze: FreezeDetector::default(),
             last_nav: NavSample::default(),
@@ -323,22 +389,138 @@ impl Controller {
         }
     }
 
-    /// The desired camera velocity relative to the drogue for the current mode, before
-    /// slewing.
+    /// The desired velocity relative to the drogue for the current mode, before slewing.
     #[inline(always)]
-    fn mode_velocity(&self) -> VelocityRe {
+    fn mode_velocity(&self, est: &DrogueEstimate) -> VelocityRe {
         let md = &self.cfg.modes;
+        let track = |fwd| {
+            let lead = self.cfg.refuelling.feedforward_lead_s;
+            let ahead = self
+                .estimator
+                .drogue_velocity_ahead(lead, &self.derived.estimator);
+            procedure::desired_velocity(
+                est,
+                ahead,
+                fwd,
+                &self.cfg.refuelling,
+                &self.cfg.velocity_limits,
+            )
+        };
         match self.modes.mode() {
             Mode::Standby | Mode::Docked => VelocityRe::ZERO,
-            Mode::Approach => self.last_outer.v_des,
+            Mode::Approach if self.cfg.procedure == Procedure::Paper => self.last_outer.v_des,
             // Fixed at entry: aimed at the drogue, closing at the minimum speed.
-            Mode::Terminal => self.modes.terminal().aim,
+            Mode::Terminal if self.cfg.procedure == Procedure::Paper => self.modes.terminal().aim,
+            Mode::PreContact => track(Forward::Station),
+            Mode::Approach => track(Forward::Contact),
+            Mode::Terminal => track(Forward::Capture),
+            Mode::MissedApproach => track(
+                if self.modes.mode_steps() < self.derived.modes.clear_steps() {
+                    Forward::Clear
+                } else {
+                    Forward::Station
+                },
+            ),
             Mode::Breakaway => VelocityRe {
                 x_right_mps: 0.0,
                 y_down_mps: md.breakaway_down_mps,
                 z_fwd_mps: -md.breakaway_aft_mps,
             },
         }
+    }
+
+    /// Refuelling: the drogue estimator's step (predict with the probe tip's velocity
+    /// `tip_mps` `[right, down, forward]`, correct with a valid frame, the drogue's offset
+    /// taken from the probe tip's measured image point `probe_tip` when the frame carries it)
+    /// and what the mode logic decides with. Before engage the "estimate" is the frame itself.
+    #[inline(always)]
+    fn observe_drogue(
+        &mut self,
+        feature: &Result<ImageFeature, MeasurementError>,
+        probe_tip: Option<[f32; 2]>,
+        tip_mps: [f32; 3],
+    ) -> (RefuelInputs, Option<TargetEstimate>, Option<TipFrame>) {
+        let nav = &self.last_nav;
+        if feature.is_ok() {
+            let sighting = self.tip_sight.observe(probe_tip, &self.cfg.estimator);
+            bump(
+                &mut self.counters.tip_sight_rejected,
+                sighting == TipSighting::Rejected,
+            );
+        }
+        let tip_image = self.tip_sight.image();
+        let frame = feature.as_ref().ok().map(|f| TipFrame {
+            drogue_from_tip_m: self.derived.tip.drogue_from_tip(
+                [f.image_x, f.image_y],
+                f.depth_m,
+                [nav.lat.phi_rad, nav.lon.theta_rad, nav.lat.psi_rad],
+                tip_image,
+            ),
+            camera_depth_m: f.depth_m,
+        });
+        let est = if self.estimator.started() {
+            self.estimator.predict(tip_mps, &self.derived.estimator);
+            if let Some(fr) = &frame {
+                let c = self.estimator.correct(fr, &self.cfg.estimator);
+                let k = &mut self.counters;
+                bump(&mut k.estimator_rejected, c.rejected);
+                bump(&mut k.estimator_restarts, c.restarted.is_some());
+            }
+            self.estimator.estimate()
+        } else {
+            frame.map_or_else(DrogueEstimate::default, |fr| {
+                let [r, d, z] = fr.drogue_from_tip_m;
+                DrogueEstimate {
+                    offset_m: [r, d],
+                    mean_offset_m: [r, d],
+                    drogue_velocity_mps: [0.0; 3],
+                    depth_m: z,
+                }
+            })
+        };
+        let predicted_miss_m = if matches!(self.modes.mode(), Mode::Approach | Mode::Terminal) {
+            self.predicted_miss_m(&est, tip_mps)
+        } else {
+            f32::INFINITY
+        };
+        let target = frame.map(|_| TargetEstimate {
+            right_m: est.offset_m[0],
+            down_m: est.offset_m[1],
+            depth_m: est.depth_m,
+        });
+        let inputs = RefuelInputs {
+            estimate: est,
+            tip_lateral_mps: [tip_mps[0], tip_mps[1]],
+            predicted_miss_m,
+        };
+        (inputs, target, frame)
+    }
+
+    /// The go/no-go gate's figure: the radial offset predicted at the drogue plane (horizon
+    /// the time to go at the present closing speed, at most `gate_max_horizon_s`; the tip
+    /// keeping its lateral velocity, no further correction) plus `gate_sigmas` standard
+    /// deviations of the larger axis, m.
+    #[inline(always)]
+    fn predicted_miss_m(&self, est: &DrogueEstimate, tip_mps: [f32; 3]) -> f32 {
+        let rc = &self.cfg.refuelling;
+        let closing = est.closing_mps(tip_mps[2]);
+        let to_go = max_to(est.depth_m, 0.0);
+        // Not closing (or barely): the longest horizon. One division per step.
+        let h = if to_go < closing * rc.gate_max_horizon_s {
+            to_go / closing
+        } else {
+            rc.gate_max_horizon_s
+        };
+        let [a, b] =
+            self.estimator
+                .predict_offset(h, [tip_mps[0], tip_mps[1]], &self.derived.estimator);
+        let mean = libm::sqrtf(a.mean_m * a.mean_m + b.mean_m * b.mean_m);
+        let var = if a.variance_m2 >= b.variance_m2 {
+            a.variance_m2
+        } else {
+            b.variance_m2
+        };
+        mean + rc.gate_sigmas * libm::sqrtf(max_to(var, 0.0))
     }
 
     /// The status bits of a step with something to flag, and the counts of it.
@@ -390,29 +572,48 @@ impl Controller {
         let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
         let x_lat = self.last_nav.lat_design_state();
 
-        // 2. Measurement, 3. outer loop (its output is kept, i.e. held, until the next valid one).
+        // 2. Measurement, 3. outer loop: the paper's law (its output is kept, i.e. held, until
+        // the next valid one), or the refuelling procedure's drogue estimator. The mode
+        // logic's overspeed check and the integrators use the design output `C x` of the
+        // tracked point (the camera's, or the probe tip's in the refuelling procedure); the
+        // estimator takes the probe tip's velocity by exact kinematics instead (the linear
+        // output is off by up to 0.5 m/s while the receiver manoeuvres, which the estimator's
+        // drogue velocity would inherit; `kinematics::point_velocity_tanker_mps`).
         let feature = self.observe_measurement(&input.measurement);
-        let fresh = feature.ok().map(|f| self.outer_law(&f));
-        if let Some(o) = fresh
-            && matches!(self.modes.mode(), Mode::Standby | Mode::Approach)
-        {
-            self.last_outer = o;
-        }
+        let paper = self.cfg.procedure == Procedure::Paper;
+        let (y_lon, y_lat) = (self.lon.output(&x_lon), self.lat.output(&x_lat));
+        let (refuel, target, frame) = if paper {
+            let fresh = feature.ok().map(|f| self.outer_law(&f));
+            if let Some(o) = fresh
+                && matches!(self.modes.mode(), Mode::Standby | Mode::Approach)
+            {
+                self.last_outer = o;
+            }
+            let none = RefuelInputs {
+                predicted_miss_m: f32::INFINITY,
+                ..RefuelInputs::default()
+            };
+            (none, fresh.map(|o| o.target), None)
+        } else {
+            let tip =
+                point_velocity_tanker_mps(&self.last_nav, &gains::TRIM, self.cfg.probe_tip_body_m);
+            self.observe_drogue(&feature, input.measurement.probe_tip, tip)
+        };
 
-        // 4. Mode logic. The camera velocity `C x` is computed once, for the dead reckoning
-        // here and the integrators below.
+        // 4. Mode logic.
         let before = self.modes.mode();
-        let y_lon = self.lon.output(&x_lon);
         let refused = self.modes.advance(
             &ModeInputs {
                 request: input.request,
-                target: fresh.map(|o| o.target),
+                target,
                 nav_valid,
                 probe_contact: input.probe_contact,
                 camera_fwd_mps: y_lon[1],
                 v_des: self.v_cmd,
+                refuel,
             },
             &self.cfg.modes,
+            &self.cfg.refuelling,
             ts,
             &self.derived.modes,
         );
@@ -422,17 +623,40 @@ impl Controller {
             self.sequence.reset();
             self.freeze.reset();
         }
+        if !paper {
+            match (before, mode) {
+                (_, Mode::Standby) => self.estimator.stop(),
+                (Mode::Standby, Mode::PreContact) => {
+                    if let Some(fr) = &frame {
+                        self.estimator.start(fr, &self.cfg.estimator);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let estimate = if paper {
+            DrogueEstimate::default()
+        } else {
+            refuel.estimate
+        };
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
-        } else {
+        } else if paper || matches!(mode, Mode::Breakaway | Mode::MissedApproach) {
             outer::slew(
                 &self.v_cmd,
-                &self.mode_velocity(),
+                &self.mode_velocity(&estimate),
                 match mode {
                     Mode::Breakaway => self.derived.breakaway_slew_step_mps,
+                    Mode::MissedApproach => self.derived.missed_slew_step_mps,
                     Mode::Terminal => self.derived.terminal_slew_step_mps,
                     _ => self.derived.slew_step_mps,
                 },
+            )
+        } else {
+            outer::slew_axes(
+                &self.v_cmd,
+                &self.mode_velocity(&estimate),
+                self.derived.refuel_slew_step_mps,
             )
         };
         let v_des = self.v_cmd;
@@ -457,7 +681,6 @@ impl Controller {
         self.engine.advance(command[1] - trim[1]);
         let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
             let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
-            let y_lat = self.lat.output(&x_lat);
             let lon = self.lon.integrate(
                 &y_lon,
                 &[v_des.y_down_mps, v_des.z_fwd_mps],
@@ -496,8 +719,20 @@ impl Controller {
             measurement_error: feature.err(),
             nav_error,
             v_des,
-            target: self.last_outer.target,
+            target: if paper {
+                self.last_outer.target
+            } else {
+                TargetEstimate {
+                    right_m: estimate.offset_m[0],
+                    down_m: estimate.offset_m[1],
+                    depth_m: estimate.depth_m,
+                }
+            },
             step: c.steps,
+            attempt: self.modes.attempt(),
+            no_go: self.modes.no_go(),
+            estimate,
+            predicted_miss_m: refuel.predicted_miss_m,
         }
     }
 }

@@ -51,3 +51,24 @@ pub const LAT: ChannelGains<5, 1, 2> = ChannelGains {
     k_integral: [[-0.69551104], [-0.6032449]],
     c_cg: [[120.0, -13.262225, 120.0, 0.0, 0.0]],
 };
+
+/// The refuelling procedure's design, weights (diagonal): lon Q [100.0, 0.0, 100.0, 100.0, 0.0, 1000.0, 400.0], R [1000.0, 400.0]; lat Q [100.0, 300.0, 100.0, 100.0, 100.0, 1000.0], R [400.0, 400.0].
+/// Longitudinal channel of the refuelling procedure: elevator and throttle.
+///
+/// States ["theta_rad", "v_mps", "alpha_rad", "q_radps", "engine_power_pct", "int_cam_down_mps_m", "int_cam_fwd_mps_m"]; inputs ["elevator_rad", "throttle"]; outputs ["cam_down_mps", "cam_fwd_mps"].
+/// Closed-loop spectral radius 0.981481, Riccati residual 7.4e-16.
+pub const REFUEL_LON: ChannelGains<5, 2, 2> = ChannelGains {
+    k_state: [[-41.03487, 0.018411266, 36.789005, -2.6250882, 5.604436e-5], [16.924015, 1.1253287, -16.607769, 0.40051916, 0.041956943]],
+    k_integral: [[0.90194273, 0.06508625], [-0.17460641, 0.96646327]],
+    c_cg: [[-120.0, 0.0, 120.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0, 0.0]],
+};
+
+/// Lateral channel of the refuelling procedure: aileron and rudder.
+///
+/// States ["psi_rad", "phi_rad", "beta_rad", "p_radps", "r_radps", "int_cam_right_mps_m"]; inputs ["aileron_rad", "rudder_rad"]; outputs ["cam_right_mps"].
+/// Closed-loop spectral radius 0.993095, Riccati residual 1.1e-15.
+pub const REFUEL_LAT: ChannelGains<5, 1, 2> = ChannelGains {
+    k_state: [[-58.05562, 4.9009533, -57.039867, -0.5294825, -2.4855268], [-45.822292, 5.0071497, -46.089645, 0.02097322, -2.4147062]],
+    k_integral: [[-1.0735439], [-0.96667415]],
+    c_cg: [[120.0, -13.262225, 120.0, 0.0, 0.0]],
+};

@@ -5,7 +5,7 @@
 //! measured: [`EngineModel`] predicts it from the throttle commands actually sent, with the
 //! same discrete model the design used. Lateral: `[psi, phi, beta, p, r]`, output camera
 //! right velocity, inputs (aileron, rudder). (Paper eq. (25)-(35), with the input labels of
-//! paper-notes item 1 and the one lateral integrator of item 5.)
+//! docs/paper.md, item 1, and the one lateral integrator of item 5.)
 //!
 //! Each channel computes, at step k,
 //!
@@ -15,7 +15,7 @@
 //! ```
 //!
 //! which is exactly the augmented discrete plant the gains were synthesised for: the plant
-//! discretised by zero-order hold at Ts, the integrator as this forward sum (paper-notes
+//! discretised by zero-order hold at Ts, the integrator as this forward sum (docs/paper.md,
 //! item 9). `C = C_cg + C_lever(p_cam)`: the CG part is generated, the lever-arm part is
 //! computed from the believed camera position ([`crate::kinematics`]).
 //!
@@ -137,15 +137,6 @@ pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
     c: [[f32; NX]; NY],
     u_trim: [f32; NU],
     q: SVector<f32, NY>,
-}
-
-/// Result of one channel step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ChannelStep<const NU: usize> {
-    /// Requested absolute inputs (trim plus perturbation), before saturation.
-    pub u_requested: [f32; NU],
-    /// True when at least one integrator was frozen by anti-windup.
-    pub frozen: bool,
 }
 
 /// `row . x`, summed left to right from `row[0] x[0]` (nalgebra's `gemv` order). `N >= 1`.

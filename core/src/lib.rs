@@ -8,14 +8,18 @@
 //! flow of one step, which is also the module layout:
 //!
 //! ```text
-//! ControllerInput ──► measurement::validate ──► ┐
-//!   (camera frame,     nav::validate        ──► ├─► mode (standby/approach/terminal/docked/breakaway)
-//!    navigation,                                │
-//!    discretes)                                 ▼
-//!                      outer::{ibvs, pbvs}: image error + depth ─► desired camera velocity
-//!                                                 ▼
+//! ControllerInput ──► measurement::validate ──┐
+//!   (camera frame,     nav::validate        ──┤
+//!    navigation,                              ▼
+//!    discretes)        estimator: the drogue's position and velocity relative to the probe
+//!                                             ▼
+//!                      mode + procedure: standby, pre-contact, approach, go/no-go gate,
+//!                        capture (terminal), docked, missed approach, breakaway
+//!                                             ▼
+//!                      outer::{ibvs, pbvs} or the procedure's guidance ─► desired velocity
+//!                                             ▼
 //!                      inner: LQR + integral action per channel (gains: generated)
-//!                                                 ▼
+//!                                             ▼
 //!                      actuator: absolute, saturated surface and throttle commands ─► ControllerOutput
 //! ```
 //!
@@ -24,6 +28,44 @@
 //! - every command it returns is finite and inside [`actuator::ActuatorLimits`];
 //! - every rejected input is named ([`measurement::MeasurementError`], [`nav::NavError`]),
 //!   counted ([`controller::Counters`]) and answered as `docs/conventions.md` specifies.
+//!
+//! Build a controller, engage it on a healthy frame and navigation sample, step it and read
+//! the command (the default configuration flies the refuelling procedure, which starts by
+//! holding the pre-contact station; [`ControllerConfig::paper`] flies the paper's):
+//!
+//! ```
+//! use ibvs_core::measurement::CameraMeasurement;
+//! use ibvs_core::nav::NavSample;
+//! use ibvs_core::{Controller, ControllerConfig, ControllerInput, Mode, ModeRequest};
+//!
+//! let mut controller = Controller::new(ControllerConfig::default()).expect("valid defaults");
+//! let input = ControllerInput {
+//!     measurement: CameraMeasurement {
+//!         seq: 1,
+//!         tracked: true,
+//!         image_x: 0.2, // drogue right of and above the boresight, normalised
+//!         image_y: -0.1,
+//!         depth_m: 8.0,
+//!         probe_tip: None,
+//!     },
+//!     nav: NavSample::default(), // at trim
+//!     probe_contact: false,
+//!     request: ModeRequest::Engage,
+//! };
+//! let out = controller.step(&input);
+//! assert_eq!(out.mode, Mode::PreContact);
+//! assert_eq!(out.attempt, 1);
+//! assert!(out.command.elevator_rad.is_finite() && out.command.throttle.is_finite());
+//! // A NaN depth is rejected, named and counted, and the last command is held.
+//! let bad = ControllerInput {
+//!     measurement: CameraMeasurement { seq: 2, depth_m: f32::NAN, ..input.measurement },
+//!     request: ModeRequest::None,
+//!     ..input
+//! };
+//! let held = controller.step(&bad);
+//! assert_eq!(held.measurement_error, Some(ibvs_core::measurement::MeasurementError::NonFinite));
+//! assert_eq!(held.mode, Mode::PreContact);
+//! ```
 //!
 //! All arithmetic is `f32`; all sizes are static. Frames and units are carried in names:
 //! `_m`, `_mps`, `_rad`, `_radps`; `re` is the camera reference frame (x right, y down,
@@ -35,6 +77,7 @@
 pub mod actuator;
 pub mod config;
 pub mod controller;
+pub mod estimator;
 pub mod frames;
 #[rustfmt::skip] // generated: see the module doc
 pub mod gains;
@@ -45,8 +88,10 @@ pub mod mode;
 pub mod nav;
 pub mod num;
 pub mod outer;
+pub mod procedure;
 pub mod wire;
 
 pub use config::{ConfigError, ControllerConfig, OuterLaw};
 pub use controller::{Controller, ControllerInput, ControllerOutput, Counters};
-pub use mode::{BreakawayReason, Mode, ModeRequest};
+pub use mode::{BreakawayReason, Mode, ModeRequest, NoGoReason};
+pub use procedure::{Procedure, RefuellingConfig};

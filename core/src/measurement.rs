@@ -24,6 +24,11 @@ pub struct CameraMeasurement {
     pub image_y: f32,
     /// Depth of the drogue plane along the camera boresight, m.
     pub depth_m: f32,
+    /// The probe tip's marker in the same frame, normalised image `(x, y)`, when the camera
+    /// sees it (a camera set back from the tip; `None` for one at the tip). It is the
+    /// refuelling procedure's convergence point: servoing the drogue's image to the tip's
+    /// own image makes the miss at contact independent of the camera's mount calibration.
+    pub probe_tip: Option<[f32; 2]>,
 }
 
 /// Why a frame was not used. Each variant has its own counter in
@@ -51,6 +56,23 @@ pub enum MeasurementError {
     /// so an identical frame is not a measurement.
     Frozen,
 }
+
+impl core::fmt::Display for MeasurementError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NotTracked => "the tracker reported no lock",
+            Self::NonFinite => "image point or depth not finite",
+            Self::DepthNotPositive => "depth zero or negative",
+            Self::DepthTooLarge => "depth beyond the largest credible",
+            Self::OutsideFieldOfView => "image point outside the field of view",
+            Self::Repeated => "no new frame (same sequence number)",
+            Self::OutOfOrder => "frame older than the last one",
+            Self::Frozen => "frame identical to the last valid one (frozen tracker)",
+        })
+    }
+}
+
+impl core::error::Error for MeasurementError {}
 
 /// Plausibility limits for a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -298,6 +320,7 @@ mod tests {
             image_x: 0.3,
             image_y: -0.3,
             depth_m: 6.0,
+            probe_tip: None,
         }
     }
 
@@ -407,6 +430,7 @@ mod tests {
                         image_x: x,
                         image_y: y,
                         depth_m,
+                        probe_tip: None,
                     };
                     assert_eq!(m.check(&bits), m.validate(&lim), "{m:?}");
                 }

@@ -1,14 +1,21 @@
-//! Mode logic: standby, approach, terminal (blind), docked, breakaway.
+//! Mode logic of both procedures: the paper's single shot (standby, approach, blind terminal,
+//! docked, breakaway) and the refuelling procedure (standby, pre-contact, contact approach,
+//! capture, docked, missed approach and retry, breakaway; [`crate::procedure`]).
 //!
-//! The transition table (also in `docs/conventions.md`, "Modes"), evaluated once per step in
-//! the order listed; the first transition that applies wins:
+//! The transition tables (also in `docs/conventions.md`, "Modes"), evaluated once per step in
+//! the order listed; the first transition that applies wins. Common to both:
 //!
 //! | from | condition | to |
 //! |---|---|---|
 //! | any but standby | `Reset` request | Standby |
-//! | approach, terminal, docked | `Abort` request | Breakaway(Abort) |
-//! | approach, terminal, docked | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
-//! | approach, terminal | camera forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
+//! | engaged (any but standby and breakaway) | `Abort` request | Breakaway(Abort) |
+//! | engaged | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
+//! | pre-contact, approach, terminal, missed approach | camera (refuelling: probe tip) forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
+//!
+//! The paper's procedure ([`Procedure::Paper`]):
+//!
+//! | from | condition | to |
+//! |---|---|---|
 //! | standby | `Engage` request with a valid measurement and valid navigation | Approach |
 //! | approach | measurement invalid for more than `hold_limit_steps` steps | Breakaway(MeasurementLost) |
 //! | approach | valid measurement with depth <= `terminal_depth_m`, offset > `terminal_max_offset_m` | Breakaway(PredictedMiss) |
@@ -18,24 +25,49 @@
 //! | terminal | `terminal_timeout_s` elapsed | Breakaway(TerminalTimeout) |
 //! | docked | probe contact lost | Breakaway(ContactLost) |
 //!
-//! Breakaway is latched: only `Reset` leaves it.
+//! The refuelling procedure ([`Procedure::Refuelling`]; the numbers are
+//! [`RefuellingConfig`]'s; "estimate" is the drogue estimator's belief, "predicted miss" the
+//! gate's radial offset at the drogue plane plus `gate_sigmas` standard deviations):
 //!
-//! Behaviour in the blind phase (not a transition): at terminal entry the lateral and
+//! | from | condition | to |
+//! |---|---|---|
+//! | standby | `Engage` request with a valid measurement and valid navigation | PreContact (attempt 1) |
+//! | pre-contact, approach | measurement invalid for more than `hold_limit_steps` steps | Breakaway(MeasurementLost) |
+//! | missed approach | measurement invalid for longer than `reacquire_limit_s` | Breakaway(MeasurementLost) |
+//! | pre-contact, missed approach | `sortie_budget_s` elapsed since engage | Breakaway(SortieTimeout) |
+//! | pre-contact | estimated depth < `station_depth_m - station_overrun_m` | Breakaway(StationOverrun) |
+//! | pre-contact | stable (estimate inside the station limits) on `station_dwell_s` worth of consecutive valid frames (lost frames between them neither count nor restart the dwell) | Approach |
+//! | approach | estimated radial offset > `abort_offset_m` | MissedApproach(OffsetTooLarge), or Breakaway(AttemptsExhausted) on the last attempt |
+//! | approach | estimated depth <= `commit_depth_m`, predicted miss > `gate_radius_m` | MissedApproach(PredictedMiss), or Breakaway(AttemptsExhausted) on the last attempt |
+//! | approach | estimated depth <= `commit_depth_m` | Terminal (capture) |
+//! | terminal | probe contact | Docked |
+//! | terminal | estimated depth < `-overshoot_m` | MissedApproach(PassedDroguePlane), or Breakaway(AttemptsExhausted) |
+//! | terminal | `capture_timeout_s` elapsed | MissedApproach(CaptureTimeout), or Breakaway(AttemptsExhausted) |
+//! | terminal | valid measurement and predicted miss > `late_gate_radius_m` | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
+//! | missed approach | `missed_clear_s` elapsed, valid measurement, estimated depth within `station_depth_tol_m` of the station | PreContact (next attempt) |
+//! | docked | probe contact lost | Breakaway(ContactLost) |
+//!
+//! Breakaway is latched: only `Reset` leaves it. A no-go is never a breakaway, except on the
+//! last attempt, where it ends the sortie.
+//!
+//! Behaviour in the paper's blind phase (not a transition): at terminal entry the lateral and
 //! vertical command is fixed to aim at the drogue: `offset × a / depth` (the offset closed
 //! in the time the blind phase takes at the closing speed `a`) plus the drogue's estimated
 //! velocity (the low-pass filtered rate of the target's offset over the approach's valid
 //! frames plus the receiver's own tracked command), saturated to the velocity limits; the
-//! closing speed is `a`. The paper holds the last commands instead (paper-notes item 7; we
+//! closing speed is `a`. The paper holds the last commands instead (docs/paper.md, item 7; we
 //! deviate, `docs/conventions.md`, "Modes").
 //!
-//! Invariant: the machine only changes mode through [`ModeMachine::update`], and every
-//! breakaway carries its reason.
+//! Invariant: the machine only changes mode through [`ModeMachine::advance`], and every
+//! breakaway carries its reason, every missed approach its [`NoGoReason`].
 
 use serde::{Deserialize, Serialize};
 
+use crate::estimator::DrogueEstimate;
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::num::{HypotLimit, clamp_sym};
 use crate::outer::VelocityLimits;
+use crate::procedure::{Procedure, RefuellingConfig};
 
 /// Controller mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -44,13 +76,20 @@ pub enum Mode {
     /// Not in control: commands are the trim values, integrators are held at zero.
     #[default]
     Standby,
-    /// Visual tracking: the outer loop closes on the drogue.
+    /// Refuelling: hold the station behind the drogue until stable.
+    PreContact,
+    /// Visual tracking: the outer loop closes on the drogue (refuelling: the contact
+    /// approach, at the contact speed).
     Approach,
-    /// Blind final phase: lateral and vertical commands fixed at entry to aim at the drogue,
-    /// closing at the minimum speed, depth dead-reckoned.
+    /// Final phase. Paper: blind, lateral and vertical commands fixed at entry to aim at the
+    /// drogue, closing at the minimum speed, depth dead-reckoned. Refuelling: the capture,
+    /// committed after the go/no-go gate, on the estimator (which coasts while the camera is
+    /// blind).
     Terminal,
     /// Probe contact: hold position relative to the tanker.
     Docked,
+    /// Refuelling: a no-go; back off, descend and return to the station for the next attempt.
+    MissedApproach,
     /// Back off and descend; latched until reset.
     Breakaway,
 }
@@ -91,6 +130,32 @@ pub enum BreakawayReason {
     /// Closing on the drogue faster than [`ModeConfig::overspeed_mps`]: a contact at that
     /// speed could damage the probe, the drogue or the hose.
     Overspeed,
+    /// Refuelling: a no-go on the last allowed attempt ([`RefuellingConfig::max_attempts`]).
+    AttemptsExhausted,
+    /// Refuelling: the sortie's time budget ([`RefuellingConfig::sortie_budget_s`]) ran out
+    /// before a docking.
+    SortieTimeout,
+    /// Refuelling: in pre-contact the receiver ran through its station toward the drogue
+    /// ([`RefuellingConfig::station_overrun_m`]) without being cleared to close.
+    StationOverrun,
+}
+
+/// Why an approach of the refuelling procedure was abandoned for a missed approach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NoGoReason {
+    /// In the contact approach the drogue moved further off than
+    /// [`RefuellingConfig::abort_offset_m`].
+    OffsetTooLarge,
+    /// At the commit depth the predicted miss exceeded [`RefuellingConfig::gate_radius_m`].
+    PredictedMiss,
+    /// In the capture, a valid frame's predicted miss exceeded
+    /// [`RefuellingConfig::late_gate_radius_m`].
+    LateNoGo,
+    /// In the capture the estimated depth passed the drogue plane without contact.
+    PassedDroguePlane,
+    /// The capture lasted longer than [`RefuellingConfig::capture_timeout_s`].
+    CaptureTimeout,
 }
 
 /// Parameters of the mode logic.
@@ -117,13 +182,13 @@ pub struct ModeConfig {
     pub breakaway_down_mps: f32,
     /// Breakaway without navigation: throttle reduction from trim, open loop.
     pub breakaway_throttle_cut: f32,
-    /// Largest camera forward speed relative to the tanker (from navigation, `C x`) in
-    /// approach and terminal; above it the controller breaks away (`Overspeed`), m/s. Must
+    /// Largest camera (refuelling: probe-tip) forward speed relative to the tanker, from
+    /// navigation, in every engaged mode but docked; above it the controller breaks away (`Overspeed`), m/s. Must
     /// exceed `velocity_limits.max_closing_mps`. Default 2.3 m/s: 0.3 m/s above the largest
     /// commanded closing speed (2.0), and below 2.6 m/s (5 kt, the upper end of the
-    /// operational contact band, `../shared/reference/model-data.md`), so that the breakaway
-    /// starts before the speed leaves the band. No run of the 1,000-run `paper-level2` and
-    /// `paper-bow-wave` campaigns exceeds even 2.05 m/s (docs/faults.md).
+    /// operational contact band; docs/models.md, "Docking check"), so that the breakaway
+    /// starts before the speed leaves the band. The closing speed at the drogue plane of the
+    /// 10,000-run `level2` campaign is at most 1.28 m/s (docs/scenarios.md).
     pub overspeed_mps: f32,
     /// Breakaway: largest change of the desired velocity, m/s², each axis (the approach's
     /// is `velocity_limits.max_accel_mps2`). A breakaway is the manoeuvre that must not be
@@ -179,6 +244,21 @@ pub struct ModeInputs {
     /// The desired velocity the inner loops were tracking (slewed): the receiver's own
     /// motion relative to the drogue's estimate at terminal entry.
     pub v_des: VelocityRe,
+    /// What the refuelling procedure decides with (ignored by the paper's).
+    pub refuel: RefuelInputs,
+}
+
+/// What the refuelling procedure's transitions see in one step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RefuelInputs {
+    /// The drogue estimator's belief after this step (meaningful once engaged).
+    pub estimate: DrogueEstimate,
+    /// The probe tip's lateral velocity relative to the tanker, `[right, down]`, from
+    /// navigation, m/s.
+    pub tip_lateral_mps: [f32; 2],
+    /// The gate's predicted radial miss at the drogue plane plus `gate_sigmas` standard
+    /// deviations, m (computed in approach and terminal only).
+    pub predicted_miss_m: f32,
 }
 
 /// State of the blind phase.
@@ -205,6 +285,10 @@ fn timeout_steps(cfg: &ModeConfig, ts_s: f32) -> u32 {
 /// answers it), and what the drogue-rate filter and the aiming command need.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModeLimits {
+    /// The procedure whose table applies.
+    procedure: Procedure,
+    /// The refuelling procedure's limits in steps and squares.
+    refuel: RefuelLimits,
     timeout_steps: u32,
     max_offset: HypotLimit,
     /// Closing speed of the blind phase `a` (`min_closing_mps`), m/s.
@@ -217,10 +301,51 @@ pub struct ModeLimits {
     rate_filter: f32,
 }
 
+/// What the refuelling procedure's transitions need from its [`RefuellingConfig`], derived
+/// once: times in whole steps (rounded), radial limits as squares (compared with the sum of
+/// squares, no square root).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RefuelLimits {
+    dwell_steps: u32,
+    capture_timeout_steps: u32,
+    clear_steps: u32,
+    reacquire_steps: u32,
+    sortie_steps: u32,
+    station_offset_sq: f32,
+    station_drogue_speed_sq: f32,
+    station_relative_speed_sq: f32,
+    abort_offset_sq: f32,
+}
+
+/// `t_s` in whole steps of `ts_s`, rounded (`as` saturates; validated times are finite).
+fn steps(t_s: f32, ts_s: f32) -> u32 {
+    libm::roundf(t_s / ts_s) as u32
+}
+
+impl RefuelLimits {
+    /// Derives the limits of `cfg` at the period `ts_s`.
+    pub fn new(cfg: &RefuellingConfig, ts_s: f32) -> Self {
+        let sq = |v: f32| v * v;
+        Self {
+            dwell_steps: steps(cfg.station_dwell_s, ts_s),
+            capture_timeout_steps: steps(cfg.capture_timeout_s, ts_s),
+            clear_steps: steps(cfg.missed_clear_s, ts_s),
+            reacquire_steps: steps(cfg.reacquire_limit_s, ts_s),
+            sortie_steps: steps(cfg.sortie_budget_s, ts_s),
+            station_offset_sq: sq(cfg.station_offset_tol_m),
+            station_drogue_speed_sq: sq(cfg.station_drogue_speed_tol_mps),
+            station_relative_speed_sq: sq(cfg.station_relative_speed_tol_mps),
+            abort_offset_sq: sq(cfg.abort_offset_m),
+        }
+    }
+}
+
 impl ModeLimits {
-    /// Derives the limits of `cfg` and `vel` at the period `ts_s`.
+    /// Derives the limits of `cfg` and `vel` at the period `ts_s`, for the paper's procedure.
     pub fn new(cfg: &ModeConfig, vel: &VelocityLimits, ts_s: f32) -> Self {
         Self {
+            procedure: Procedure::Paper,
+            refuel: RefuelLimits::default(),
             timeout_steps: timeout_steps(cfg, ts_s),
             max_offset: HypotLimit::new(cfg.terminal_max_offset_m),
             closing_mps: vel.min_closing_mps,
@@ -228,6 +353,31 @@ impl ModeLimits {
             per_step_s: 1.0 / ts_s,
             rate_filter: cfg.drogue_rate_filter,
         }
+    }
+
+    /// The limits for `procedure`, with the refuelling procedure's from `refuel`.
+    pub fn for_procedure(
+        cfg: &ModeConfig,
+        vel: &VelocityLimits,
+        procedure: Procedure,
+        refuel: &RefuellingConfig,
+        ts_s: f32,
+    ) -> Self {
+        Self {
+            procedure,
+            refuel: RefuelLimits::new(refuel, ts_s),
+            ..Self::new(cfg, vel, ts_s)
+        }
+    }
+
+    /// The procedure whose table applies.
+    pub fn procedure(&self) -> Procedure {
+        self.procedure
+    }
+
+    /// Steps of the missed approach's clearing phase.
+    pub fn clear_steps(&self) -> u32 {
+        self.refuel.clear_steps
     }
 }
 
@@ -312,6 +462,16 @@ pub struct ModeMachine {
     nav_invalid_steps: u16,
     terminal: TerminalState,
     drogue_rate: OffsetRate,
+    /// Refuelling: the approach being flown, 1-based (0 before engage).
+    attempt: u8,
+    /// Refuelling: why the last approach was abandoned (cleared when the next starts).
+    no_go: Option<NoGoReason>,
+    /// Refuelling: consecutive steps stable at the station.
+    stable_steps: u32,
+    /// Refuelling: steps in the current mode.
+    mode_steps: u32,
+    /// Refuelling: steps since engage.
+    sortie_steps: u32,
 }
 
 impl ModeMachine {
@@ -335,15 +495,48 @@ impl ModeMachine {
         &self.drogue_rate
     }
 
-    /// True when the last valid measurement is being held this step.
+    /// True when this step has no valid measurement and the controller flies on without one
+    /// (paper: the approach holds the outer loop's last command; refuelling: the estimator
+    /// coasts, in every engaged mode but docked). The paper's blind terminal phase does not
+    /// use the camera, so it never holds.
     pub fn holding_measurement(&self) -> bool {
-        self.mode == Mode::Approach && self.meas_invalid_steps > 0
+        matches!(
+            self.mode,
+            Mode::Approach | Mode::PreContact | Mode::MissedApproach | Mode::Terminal
+        ) && self.meas_invalid_steps > 0
+    }
+
+    /// Refuelling: the approach being flown, 1-based (0 in standby).
+    pub fn attempt(&self) -> u8 {
+        self.attempt
+    }
+
+    /// Refuelling: why the last approach was abandoned, until the next one starts.
+    pub fn no_go(&self) -> Option<NoGoReason> {
+        self.no_go
+    }
+
+    /// Steps spent in the current mode (refuelling; the paper's terminal counts its own).
+    pub fn mode_steps(&self) -> u32 {
+        self.mode_steps
     }
 
     fn enter(&mut self, mode: Mode) {
         self.mode = mode;
         self.reason = None;
         self.meas_invalid_steps = 0;
+        self.mode_steps = 0;
+        self.stable_steps = 0;
+    }
+
+    /// A no-go: a missed approach, or on the last attempt the end of the sortie.
+    fn no_go_to(&mut self, why: NoGoReason, refuel: &RefuellingConfig) {
+        self.no_go = Some(why);
+        if self.attempt >= refuel.max_attempts {
+            self.break_away(BreakawayReason::AttemptsExhausted);
+        } else {
+            self.enter(Mode::MissedApproach);
+        }
     }
 
     fn break_away(&mut self, why: BreakawayReason) {
@@ -351,27 +544,33 @@ impl ModeMachine {
         self.reason = Some(why);
     }
 
-    /// Advances the machine by one step of `ts_s` seconds. Returns true when `Engage` was
-    /// requested in standby but refused (no valid measurement or navigation).
+    /// Advances the machine by one step of `ts_s` seconds, for the paper's procedure (the
+    /// unit tests' entry point, compiled for them only; the controller calls
+    /// [`ModeMachine::advance`]). Returns true when
+    /// `Engage` was requested in standby but refused (no valid measurement or navigation).
     /// `vel`: the velocity limits (the blind phase's closing speed and the saturation of its
     /// aiming command).
-    pub fn update(
+    #[cfg(test)]
+    pub(crate) fn update(
         &mut self,
         inp: &ModeInputs,
         cfg: &ModeConfig,
         vel: &VelocityLimits,
         ts_s: f32,
     ) -> bool {
-        self.advance(inp, cfg, ts_s, &ModeLimits::new(cfg, vel, ts_s))
+        let refuel = RefuellingConfig::default();
+        self.advance(inp, cfg, &refuel, ts_s, &ModeLimits::new(cfg, vel, ts_s))
     }
 
-    /// [`ModeMachine::update`] with the limits derived beforehand (`ModeLimits::new(cfg,
-    /// vel, ts_s)`: the controller derives them at construction).
+    /// Advances the machine by one step of `ts_s` seconds with the limits derived beforehand
+    /// (the controller derives them at construction: [`ModeLimits::for_procedure`]), for the
+    /// procedure they name. Returns true when `Engage` was requested in standby but refused.
     #[inline]
     pub fn advance(
         &mut self,
         inp: &ModeInputs,
         cfg: &ModeConfig,
+        refuel: &RefuellingConfig,
         ts_s: f32,
         limits: &ModeLimits,
     ) -> bool {
@@ -380,9 +579,11 @@ impl ModeMachine {
         } else {
             self.nav_invalid_steps.saturating_add(1)
         };
-        let engaged = matches!(self.mode, Mode::Approach | Mode::Terminal | Mode::Docked);
+        let engaged = !matches!(self.mode, Mode::Standby | Mode::Breakaway);
         if inp.request == ModeRequest::Reset && self.mode != Mode::Standby {
             self.enter(Mode::Standby);
+            self.attempt = 0;
+            self.no_go = None;
             return false;
         }
         if engaged && inp.request == ModeRequest::Abort {
@@ -393,12 +594,29 @@ impl ModeMachine {
             self.break_away(BreakawayReason::NavLost);
             return false;
         }
-        if matches!(self.mode, Mode::Approach | Mode::Terminal)
-            && inp.camera_fwd_mps > cfg.overspeed_mps
+        if matches!(
+            self.mode,
+            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
+        ) && inp.camera_fwd_mps > cfg.overspeed_mps
         {
             self.break_away(BreakawayReason::Overspeed);
             return false;
         }
+        match limits.procedure {
+            Procedure::Paper => self.advance_paper(inp, cfg, ts_s, limits),
+            Procedure::Refuelling => self.advance_refuelling(inp, cfg, refuel, &limits.refuel),
+        }
+    }
+
+    /// The paper's table after the common rows.
+    #[inline(always)]
+    fn advance_paper(
+        &mut self,
+        inp: &ModeInputs,
+        cfg: &ModeConfig,
+        ts_s: f32,
+        limits: &ModeLimits,
+    ) -> bool {
         match self.mode {
             Mode::Standby => {
                 if inp.request == ModeRequest::Engage {
@@ -459,6 +677,124 @@ impl ModeMachine {
                     self.break_away(BreakawayReason::ContactLost);
                 }
             }
+            // Not in the paper's procedure (reached only through a configuration change
+            // while engaged, which the controller does not allow): hold.
+            Mode::Breakaway | Mode::PreContact | Mode::MissedApproach => {}
+        }
+        false
+    }
+
+    /// The refuelling procedure's table after the common rows.
+    #[inline(always)]
+    fn advance_refuelling(
+        &mut self,
+        inp: &ModeInputs,
+        cfg: &ModeConfig,
+        rc: &RefuellingConfig,
+        rl: &RefuelLimits,
+    ) -> bool {
+        let e = &inp.refuel.estimate;
+        let valid = inp.target.is_some();
+        let sq = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
+        if !matches!(self.mode, Mode::Standby | Mode::Breakaway) {
+            self.sortie_steps = self.sortie_steps.saturating_add(1);
+            self.mode_steps = self.mode_steps.saturating_add(1);
+        }
+        if matches!(
+            self.mode,
+            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
+        ) {
+            self.meas_invalid_steps = if valid {
+                0
+            } else {
+                self.meas_invalid_steps.saturating_add(1)
+            };
+        }
+        let lost = self.meas_invalid_steps > cfg.hold_limit_steps;
+        let out_of_time = self.sortie_steps > rl.sortie_steps;
+        match self.mode {
+            Mode::Standby => {
+                if inp.request == ModeRequest::Engage {
+                    if !(valid && inp.nav_valid) {
+                        return true;
+                    }
+                    self.enter(Mode::PreContact);
+                    self.attempt = 1;
+                    self.no_go = None;
+                    self.sortie_steps = 0;
+                }
+            }
+            Mode::PreContact => {
+                if lost {
+                    self.break_away(BreakawayReason::MeasurementLost);
+                } else if out_of_time {
+                    self.break_away(BreakawayReason::SortieTimeout);
+                } else if e.depth_m < rc.station_depth_m - rc.station_overrun_m {
+                    self.break_away(BreakawayReason::StationOverrun);
+                } else {
+                    // Judged on valid frames only: a lost frame (held) neither counts toward
+                    // the dwell nor restarts it (at 50 % frame loss a dwell that restarted on
+                    // every lost frame was never reached).
+                    let stable = sq(e.mean_offset_m) <= rl.station_offset_sq
+                        && libm::fabsf(e.depth_m - rc.station_depth_m) <= rc.station_depth_tol_m
+                        && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
+                            <= rl.station_drogue_speed_sq
+                        && sq(inp.refuel.tip_lateral_mps) <= rl.station_relative_speed_sq;
+                    if valid {
+                        self.stable_steps = if stable {
+                            self.stable_steps.saturating_add(1)
+                        } else {
+                            0
+                        };
+                    }
+                    if self.stable_steps >= rl.dwell_steps {
+                        self.enter(Mode::Approach);
+                        self.no_go = None;
+                    }
+                }
+            }
+            Mode::Approach => {
+                if lost {
+                    self.break_away(BreakawayReason::MeasurementLost);
+                } else if sq(e.offset_m) > rl.abort_offset_sq {
+                    self.no_go_to(NoGoReason::OffsetTooLarge, rc);
+                } else if e.depth_m <= rc.commit_depth_m {
+                    if inp.refuel.predicted_miss_m > rc.gate_radius_m {
+                        self.no_go_to(NoGoReason::PredictedMiss, rc);
+                    } else {
+                        self.enter(Mode::Terminal);
+                    }
+                }
+            }
+            Mode::Terminal => {
+                if inp.probe_contact {
+                    self.enter(Mode::Docked);
+                } else if e.depth_m < -rc.overshoot_m {
+                    self.no_go_to(NoGoReason::PassedDroguePlane, rc);
+                } else if self.mode_steps > rl.capture_timeout_steps {
+                    self.no_go_to(NoGoReason::CaptureTimeout, rc);
+                } else if valid && inp.refuel.predicted_miss_m > rc.late_gate_radius_m {
+                    self.no_go_to(NoGoReason::LateNoGo, rc);
+                }
+            }
+            Mode::MissedApproach => {
+                if u32::from(self.meas_invalid_steps) > rl.reacquire_steps {
+                    self.break_away(BreakawayReason::MeasurementLost);
+                } else if out_of_time {
+                    self.break_away(BreakawayReason::SortieTimeout);
+                } else if self.mode_steps >= rl.clear_steps
+                    && valid
+                    && libm::fabsf(e.depth_m - rc.station_depth_m) <= rc.station_depth_tol_m
+                {
+                    self.enter(Mode::PreContact);
+                    self.attempt = self.attempt.saturating_add(1);
+                }
+            }
+            Mode::Docked => {
+                if !inp.probe_contact {
+                    self.break_away(BreakawayReason::ContactLost);
+                }
+            }
             Mode::Breakaway => {}
         }
         false
@@ -495,6 +831,7 @@ mod tests {
                 y_down_mps: -0.2,
                 z_fwd_mps: 1.0,
             },
+            refuel: RefuelInputs::default(),
         }
     }
 

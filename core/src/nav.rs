@@ -66,6 +66,17 @@ pub enum NavError {
     OutsideEnvelope,
 }
 
+impl core::fmt::Display for NavError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NonFinite => "a navigation state is not finite",
+            Self::OutsideEnvelope => "a navigation state is outside the envelope",
+        })
+    }
+}
+
+impl core::error::Error for NavError {}
+
 /// Largest perturbations from trim the controller accepts (absolute values).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

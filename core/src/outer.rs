@@ -1,7 +1,7 @@
 //! Outer loop: from the validated image feature to a desired camera velocity.
 //!
 //! Two laws, selectable in [`crate::config::ControllerConfig::law`]:
-//! - [`ibvs`]: the paper's eq. (16), (18) and the closing-speed law of paper-notes item 2,
+//! - [`ibvs`]: the paper's eq. (16), (18) and the closing-speed law of docs/paper.md, item 2,
 //!   acting on the image error directly;
 //! - [`pbvs`]: the position-based baseline: the image point and depth are turned into a 3-D
 //!   drogue position through the *believed* camera mount and the navigation attitude, and a
@@ -71,7 +71,7 @@ pub struct PbvsGains {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct VelocityLimits {
-    /// Minimum closing speed `a` (paper eq. (22), read as paper-notes item 2 and 6), m/s.
+    /// Minimum closing speed `a` (paper eq. (22), read as in docs/paper.md, items 2 and 6), m/s.
     /// Also the closing speed of the blind terminal phase; must lie in the coupling band.
     pub min_closing_mps: f32,
     /// Maximum closing speed, m/s.
@@ -108,6 +108,18 @@ pub fn slew(from: &VelocityRe, to: &VelocityRe, max_step: f32) -> VelocityRe {
         x_right_mps: step(from.x_right_mps, to.x_right_mps),
         y_down_mps: step(from.y_down_mps, to.y_down_mps),
         z_fwd_mps: step(from.z_fwd_mps, to.z_fwd_mps),
+    }
+}
+
+/// Moves `from` toward `to` by at most `max_step[i]` (not NaN) on axis `i` (right, down,
+/// forward).
+#[inline]
+pub fn slew_axes(from: &VelocityRe, to: &VelocityRe, max_step: [f32; 3]) -> VelocityRe {
+    let step = |a: f32, b: f32, m: f32| a + clamp_sym(b - a, m);
+    VelocityRe {
+        x_right_mps: step(from.x_right_mps, to.x_right_mps, max_step[0]),
+        y_down_mps: step(from.y_down_mps, to.y_down_mps, max_step[1]),
+        z_fwd_mps: step(from.z_fwd_mps, to.z_fwd_mps, max_step[2]),
     }
 }
 
@@ -211,7 +223,7 @@ mod tests {
 
     #[test]
     fn ibvs_signs_drive_toward_the_drogue() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         // Drogue right of and above the boresight: move right, move up (negative down), close.
         let o = ibvs(&feature(0.2, -0.1, 5.0), &c.ibvs, &c.velocity_limits);
         assert!(o.v_des.x_right_mps > 0.0);
@@ -229,7 +241,7 @@ mod tests {
 
     #[test]
     fn ibvs_closing_speed_is_floored_slowed_by_error_and_capped() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let (g, lim) = (&c.ibvs, &c.velocity_limits);
         // Far and centred: k3 z above the cap.
         assert_eq!(
@@ -252,7 +264,7 @@ mod tests {
 
     #[test]
     fn ibvs_gain_cap_limits_k_over_z_near_the_drogue() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let (g, lim) = (&c.ibvs, &c.velocity_limits);
         let cap = g.max_cartesian_gain_per_s;
         // Far: the paper's k1 e_x. Near: cap z e_x, i.e. cap times the lateral offset.
@@ -293,7 +305,7 @@ mod tests {
 
     #[test]
     fn pbvs_reconstructs_the_offset_at_trim() {
-        let c = ControllerConfig::default();
+        let c = ControllerConfig::paper();
         let geo = c.pbvs_geometry();
         // Camera at the probe tip, level boresight at trim: offset = image point * depth.
         let r =
@@ -303,7 +315,7 @@ mod tests {
 
     #[test]
     fn pbvs_is_biased_by_a_mount_error() {
-        let mut c = ControllerConfig::default();
+        let mut c = ControllerConfig::paper();
         c.camera.position_body_m[2] += -0.5; // believed 0.5 m higher than it is
         let r = pbvs_drogue_from_probe_tanker_m(
             &feature(0.0, 0.0, 4.0),

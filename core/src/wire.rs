@@ -12,15 +12,15 @@
 //!
 //! ```text
 //! payload  = version (u8, PROTOCOL_VERSION) | kind (u8: 'M' = 0x4D measurement, 'C' = 0x43 command)
-//!          | body (postcard: Uplink or Downlink, at most MAX_BODY_LEN = 248 bytes)
+//!          | body (postcard: Uplink or Downlink, at most MAX_BODY_LEN = 311 bytes)
 //!          | CRC-32C of version..body (Castagnoli, CRC_32_ISCSI: poly 0x1EDC6F41 reflected,
 //!            init and xorout 0xFFFFFFFF), 4 bytes little-endian
-//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 256 bytes
+//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 320 bytes
 //! ```
 //!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 73 to 81 bytes on the wire, a command frame 94 to 256 (measured by
+//! A measurement frame is 74 to 82 bytes on the wire, a command frame 135 to 310 (measured by
 //! the tests with the largest values of every field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
@@ -44,14 +44,15 @@ use crate::controller::{ControllerInput, ControllerOutput, Counters};
 use crate::measurement::{MeasurementError, SequenceCheck};
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 3;
+pub const PROTOCOL_VERSION: u8 = 4;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
-pub const MAX_FRAME_LEN: usize = 256;
+pub const MAX_FRAME_LEN: usize = 320;
 
-/// Largest payload (header, body and CRC) before COBS encoding, bytes. COBS adds exactly one
-/// byte to a payload of at most 254 bytes, so such a frame is at most [`MAX_FRAME_LEN`].
-pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 2;
+/// Largest payload (header, body and CRC) before COBS encoding, bytes. COBS adds one code
+/// byte per block of at most 254 data bytes, so at most 2 to a payload of up to 508 bytes;
+/// with the terminating zero such a frame is at most [`MAX_FRAME_LEN`].
+pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 3;
 
 /// Header bytes before the body: version and kind.
 pub const HEADER_LEN: usize = 2;
@@ -310,8 +311,10 @@ impl core::fmt::Display for WireError {
     }
 }
 
+impl core::error::Error for WireError {}
+
 /// COBS-encodes `src` into `dst`; returns the encoded length (no terminating zero). Minimal
-/// encoding: `src.len() + 1` bytes for up to 254 bytes.
+/// encoding: `src.len() + 1` bytes for up to 254 bytes, one more per further block of 254.
 fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Result<usize, WireError> {
     let mut put = |i: usize, b: u8| -> Result<(), WireError> {
         *dst.get_mut(i).ok_or(WireError::BufferTooSmall)? = b;
@@ -570,9 +573,10 @@ mod tests {
     use super::*;
     use crate::actuator::ActuatorCommand;
     use crate::controller::StatusFlags;
+    use crate::estimator::DrogueEstimate;
     use crate::frames::{TargetEstimate, VelocityRe};
     use crate::measurement::{CameraMeasurement, MeasurementError};
-    use crate::mode::{BreakawayReason, Mode, ModeRequest};
+    use crate::mode::{BreakawayReason, Mode, ModeRequest, NoGoReason};
     use crate::nav::{NavError, NavSample};
     use proptest::prelude::*;
 
@@ -584,6 +588,7 @@ mod tests {
                 image_x: -0.3,
                 image_y: 0.2,
                 depth_m: 6.5,
+                probe_tip: None,
             },
             probe_contact: true,
             request: ModeRequest::Engage,
@@ -620,6 +625,9 @@ mod tests {
             saturated_steps: m,
             integrator_frozen_steps: m,
             non_finite_commands: m,
+            estimator_rejected: m,
+            estimator_restarts: m,
+            tip_sight_rejected: m,
         };
         let link = LinkCounters {
             frames_ok: m,
@@ -655,6 +663,15 @@ mod tests {
                 depth_m: 1.0,
             },
             step: m,
+            attempt: u8::MAX,
+            no_go: Some(NoGoReason::CaptureTimeout),
+            estimate: DrogueEstimate {
+                offset_m: [1.0; 2],
+                mean_offset_m: [1.0; 2],
+                drogue_velocity_mps: [1.0; 3],
+                depth_m: 1.0,
+            },
+            predicted_miss_m: 1.0,
         };
         Downlink {
             seq: m,
@@ -751,7 +768,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, frame.len()),
-            (73, 81, 94, 256),
+            (74, 82, 135, 310),
             "update the module doc"
         );
     }
@@ -867,6 +884,7 @@ mod tests {
                 input: ControllerInput {
                     measurement: CameraMeasurement {
                         seq: cam_seq, tracked, image_x: img[0], image_y: img[1], depth_m: img[2],
+                        probe_tip: None,
                     },
                     nav: NavSample::from_array(nav),
                     probe_contact: contact,
@@ -920,7 +938,7 @@ mod tests {
         fn uplinks_round_trip(m in any_uplink()) {
             let mut buf = [0u8; MAX_FRAME_LEN];
             let frame = encode_uplink(&m, &mut buf).unwrap();
-            prop_assert!(frame.len() <= 81);
+            prop_assert!(frame.len() <= 82);
             prop_assert_eq!(bytes_of(&decode_uplink(frame).unwrap()), bytes_of(&m));
         }
 

@@ -1,4 +1,8 @@
-//! Behaviour tests of the docking controller through its public API only.
+//! Behaviour tests of the docking controller through its public API only, flying the
+//! paper's procedure. The refuelling procedure's transitions are checked step by step
+//! against an independent model of its table in `fuzz_step.rs` (with a test that the
+//! generated sorties reach every row of the table), and closed loop in `host-sim/tests/faults.rs`
+//! and `tests/tests/docking.rs`.
 //!
 //! Each test drives [`Controller::step`] through one behaviour of the response specification
 //! in the `controller` module doc and the transition table in the `mode` module doc: engaging,
@@ -39,7 +43,7 @@ fn trim() -> [f32; 4] {
 /// many steps, which a working tracker's noise never produces. The check has its own tests
 /// (`frozen_frames_...`), on the default configuration.
 fn config() -> ControllerConfig {
-    let mut cfg = ControllerConfig::default();
+    let mut cfg = ControllerConfig::paper();
     cfg.measurement.frozen_frame_limit = u16::MAX;
     cfg
 }
@@ -116,6 +120,7 @@ impl Rig {
                 image_x: seen.x,
                 image_y: seen.y,
                 depth_m: seen.depth_m,
+                probe_tip: None,
             },
             nav: self.nav,
             probe_contact: false,
@@ -388,7 +393,7 @@ fn late_frames_hold_the_last_command_then_break_away() {
 /// out.
 #[test]
 fn frozen_frames_are_accepted_up_to_the_limit_then_held_then_break_away() {
-    let cfg = ControllerConfig::default();
+    let cfg = ControllerConfig::paper();
     let repeats = u32::from(cfg.measurement.frozen_frame_limit);
     let hold = u32::from(cfg.modes.hold_limit_steps);
     assert!(repeats > 0 && hold > 0);
@@ -417,7 +422,7 @@ fn frozen_frames_are_accepted_up_to_the_limit_then_held_then_break_away() {
 /// `Repeated`, not a repeat of content, and does not count toward `Frozen`.
 #[test]
 fn a_changed_frame_restarts_the_frozen_count_and_repeated_numbers_do_not_count() {
-    let cfg = ControllerConfig::default();
+    let cfg = ControllerConfig::paper();
     let repeats = cfg.measurement.frozen_frame_limit;
     let moved = Seen {
         depth_m: f32::from_bits(MID.depth_m.to_bits() + 1),
@@ -643,9 +648,9 @@ struct RateModel {
 impl RateModel {
     fn observe(&mut self, cfg: &ControllerConfig, t: &TargetEstimate) {
         let now = [t.right_m, t.down_m];
-        for k in 0..2 {
-            let raw = (now[k] - self.last[k]) / Controller::PERIOD_S;
-            self.rate[k] += cfg.modes.drogue_rate_filter * (raw - self.rate[k]);
+        for ((rate, last), now) in self.rate.iter_mut().zip(self.last).zip(now) {
+            let raw = (now - last) / Controller::PERIOD_S;
+            *rate += cfg.modes.drogue_rate_filter * (raw - *rate);
         }
         self.last = now;
     }
@@ -1000,6 +1005,41 @@ fn new_rejects_an_invalid_config_naming_the_field() {
     );
     assert_eq!(rejection(|_| {}), None);
     assert_eq!(rejection(|c| c.law = OuterLaw::Pbvs), None);
+}
+
+#[test]
+fn new_rejects_angles_outside_the_range_of_the_steps_trigonometry() {
+    let inconsistent = |field| {
+        Some(ConfigError {
+            field,
+            problem: ConfigProblem::Inconsistent,
+        })
+    };
+    let pitch = "camera.pitch_down_rad (finite, at most 0.8 rad either way)";
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = 0.81),
+        inconsistent(pitch)
+    );
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = -0.81),
+        inconsistent(pitch)
+    );
+    assert_eq!(
+        rejection(|c| c.camera.pitch_down_rad = f32::NAN),
+        inconsistent(pitch)
+    );
+    assert_eq!(rejection(|c| c.camera.pitch_down_rad = 0.8), None);
+    assert_eq!(
+        rejection(|c| c.nav_envelope.max_angle_rad = 0.75),
+        inconsistent(
+            "nav_envelope.max_angle_rad (plus the trim pitch and angle of attack, <= 0.8 rad)"
+        )
+    );
+    assert_eq!(
+        rejection(|c| c.nav_envelope.max_bank_rad = 0.9),
+        inconsistent("nav_envelope.max_bank_rad / max_sideslip_rad (<= 0.8 rad)")
+    );
+    assert_eq!(rejection(|c| c.nav_envelope.max_bank_rad = 0.8), None);
 }
 
 // ---------------------------------------------------------------------------------------------

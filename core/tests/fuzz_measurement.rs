@@ -52,6 +52,7 @@ fn frame() -> impl Strategy<Value = CameraMeasurement> {
             image_x: x,
             image_y: y,
             depth_m: z,
+            probe_tip: None,
         })
 }
 

@@ -6,11 +6,14 @@
 //!   `f32` of a frame and of the navigation an arbitrary bit pattern or a plausible value,
 //!   arbitrary frame numbers, contact discretes and operator requests);
 //! - every mode transition is one of the documented graph's (`ibvs_core::mode`, module doc,
-//!   and `docs/conventions.md`, "Modes"): an independent model of the transition table is
-//!   stepped beside the controller and must agree on the mode, the breakaway reason and the
-//!   refused-engage bit at every step. (The model cannot know the dead-reckoned depth of the
-//!   blind phase, so it accepts `PassedDroguePlane` from terminal at any step; everything
-//!   else it predicts exactly.)
+//!   and `docs/conventions.md`, "Modes"), for both procedures: an independent model of the
+//!   transition tables is stepped beside the controller and must agree on the mode, the
+//!   breakaway reason, the refused-engage bit and (refuelling) the attempt and the no-go
+//!   reason at every step. (Paper: the model cannot know the dead-reckoned depth of the
+//!   blind phase, so it accepts `PassedDroguePlane` from terminal at any step. Refuelling:
+//!   the model decides on the estimate and the gate's predicted miss that the step reports,
+//!   as the table says; what those numbers are is the estimator's business, tested on its
+//!   own. Everything else it predicts exactly.)
 //!
 //! The byte-level test feeds garbage, valid measurement frames and frames with a flipped byte
 //! into [`FrameDecoder`] and steps the controller on every frame it accepts, as the firmware
@@ -22,15 +25,17 @@
 //! `cargo test --release -p ibvs-core --test fuzz_step -- --ignored`.
 
 use ibvs_core::controller::StatusFlags;
-use ibvs_core::gains::{LON, TRIM};
-use ibvs_core::kinematics::lever_arm_lon;
+use ibvs_core::estimator::TipGeometry;
+use ibvs_core::gains::{LAT, LON, TRIM};
+use ibvs_core::inner::Channel;
+use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::mode::ModeConfig;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{FrameDecoder, MAX_FRAME_LEN, Uplink, encode_uplink};
 use ibvs_core::{
     BreakawayReason, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
-    ModeRequest, OuterLaw,
+    ModeRequest, NoGoReason, OuterLaw, Procedure, RefuellingConfig,
 };
 use proptest::prelude::*;
 
@@ -46,6 +51,10 @@ fn frame_content() -> impl Strategy<Value = (bool, f32, f32, f32)> {
     prop_oneof![
         3 => (Just(true), -0.6_f32..0.6, -0.45_f32..0.45, 0.2_f32..12.0),
         2 => (Just(true), -0.6_f32..0.6, -0.45_f32..0.45, 0.3_f32..0.75),
+        // The refuelling procedure's pre-contact station (3 m, nearly centred) and the last
+        // metre before the drogue.
+        2 => (Just(true), -0.04_f32..0.04, -0.04_f32..0.04, 2.8_f32..3.2),
+        1 => (Just(true), -0.2_f32..0.2, -0.2_f32..0.2, 0.05_f32..1.0),
         2 => (any::<bool>(), bits(), bits(), bits()),
     ]
 }
@@ -89,7 +98,7 @@ fn run_of_inputs() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
         nav(),
         prop::bool::weighted(0.2),
         request(),
-        prop_oneof![8 => Just(1_usize), 3 => 2_usize..30, 1 => 240_usize..300],
+        prop_oneof![8 => Just(1_usize), 3 => 2_usize..30, 2 => 50_usize..120, 1 => 240_usize..300],
     )
         .prop_map(
             |(step, (tracked, x, y, z), nav, contact, request, repeat)| {
@@ -100,6 +109,7 @@ fn run_of_inputs() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                         image_x: x,
                         image_y: y,
                         depth_m: z,
+                        probe_tip: None,
                     },
                     nav,
                     probe_contact: contact,
@@ -119,6 +129,12 @@ fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
             .map(|(i, step, mut input)| {
                 seq = seq.wrapping_add(step);
                 input.measurement.seq = seq;
+                // A tracker's noise: repeated frames are not bit-identical (the frozen check
+                // would reject them after a few), unless the content is not a number.
+                let m = &mut input.measurement;
+                if m.depth_m.is_finite() {
+                    m.depth_m += 1e-4 * (i % 7) as f32;
+                }
                 // A run's request is sent once, at its start.
                 if i > 0 {
                     input.request = ModeRequest::None;
@@ -126,6 +142,137 @@ fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
                 input
             })
             .collect()
+    })
+}
+
+/// One segment of a refuelling sortie as a camera and a navigation system could report it:
+/// the drogue held near the station, the receiver closing on it (depth falling 0.02 m a
+/// step, 1 m/s, from wherever it is), the drogue off to one side, frames lost, navigation
+/// lost, probe contact, or an operator request. Offsets and depths are the drogue's from the
+/// probe tip; the frames are what the configured (set-back) camera sees of that.
+#[derive(Debug, Clone, Copy)]
+enum Segment {
+    /// Near the station (3 m), offset `(right, down)` m, for `n` steps.
+    Station(f32, f32, usize),
+    /// Closing from the current depth at 1 m/s toward `end` m with the offset `(right, down)`.
+    Close(f32, f32, f32),
+    /// The drogue far off the probe's line for `n` steps.
+    Off(usize),
+    /// Untracked frames for `n` steps.
+    Lost(usize),
+    /// The same depth and offset for `n` steps (the receiver stopped closing).
+    Hold(usize),
+    /// Non-finite navigation for `n` steps.
+    NavBad(usize),
+    /// Navigation reporting the receiver 2.5 m/s faster than the tanker for `n` steps.
+    NavFast(usize),
+    /// The probe-contact discrete for `n` steps (with the last frame content).
+    Contact(usize),
+    /// A request, once.
+    Request(ModeRequest),
+}
+
+fn segment() -> impl Strategy<Value = Segment> {
+    let small = || -0.06_f32..0.06;
+    prop_oneof![
+        6 => (small(), small(), 30_usize..120).prop_map(|(x, y, n)| Segment::Station(x, y, n)),
+        4 => (-0.3_f32..0.6, small(), small()).prop_map(|(end, x, y)| Segment::Close(end, x, y)),
+        2 => (-0.3_f32..0.0, -0.4_f32..0.4, -0.4_f32..0.4)
+            .prop_map(|(end, x, y)| Segment::Close(end, x, y)),
+        1 => (1_usize..40).prop_map(Segment::Off),
+        1 => (100_usize..200).prop_map(Segment::Hold),
+        1 => prop_oneof![1_usize..10, 20_usize..200].prop_map(Segment::Lost),
+        1 => prop_oneof![1_usize..5, 20_usize..40].prop_map(Segment::NavBad),
+        1 => (1_usize..5).prop_map(Segment::NavFast),
+        2 => (1_usize..80).prop_map(Segment::Contact),
+        1 => request().prop_map(Segment::Request),
+    ]
+}
+
+/// A refuelling sortie for the configuration `cfg`'s camera: engage at the station, then
+/// segments; at most [`MAX_STEPS`] x 4 steps (long enough for pre-contact dwell, approach,
+/// capture and retries).
+fn sortie_sequence(cfg: ControllerConfig) -> impl Strategy<Value = Vec<ControllerInput>> {
+    let tip =
+        TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad).tip_from_camera_m();
+    (any::<u32>(), prop::collection::vec(segment(), 1..30)).prop_map(move |(start, segs)| {
+        let mut out = Vec::new();
+        let mut seq = start;
+        let (mut depth, mut x, mut y) = (3.0_f32, 0.0_f32, 0.0_f32);
+        // A frame of the drogue at `(x, y)` right and down of the tip, `d` ahead of it.
+        let mut push = |out: &mut Vec<ControllerInput>, tracked: bool, x: f32, y: f32, d: f32| {
+            seq = seq.wrapping_add(1);
+            let k = out.len();
+            let z = d + tip[2];
+            out.push(ControllerInput {
+                measurement: CameraMeasurement {
+                    seq,
+                    tracked: tracked && z > 0.05,
+                    // A tracker's noise, so the frozen check does not reject the frames.
+                    image_x: (x + tip[0]) / z + 1e-4 * (k % 5) as f32,
+                    image_y: (y + tip[1]) / z,
+                    depth_m: z.max(0.05),
+                    probe_tip: None,
+                },
+                nav: NavSample::default(),
+                probe_contact: false,
+                request: if k == 0 {
+                    ModeRequest::Engage
+                } else {
+                    ModeRequest::None
+                },
+            });
+        };
+        push(&mut out, true, 0.0, 0.0, depth);
+        for seg in segs {
+            let edit = |out: &mut Vec<ControllerInput>, f: &dyn Fn(&mut ControllerInput)| {
+                if let Some(last) = out.last_mut() {
+                    f(last);
+                }
+            };
+            match seg {
+                Segment::Station(sx, sy, n) => {
+                    (x, y, depth) = (sx, sy, 3.0);
+                    (0..n).for_each(|_| push(&mut out, true, x, y, depth));
+                }
+                Segment::Close(end, cx, cy) => {
+                    (x, y) = (cx, cy);
+                    while depth > end && out.len() < MAX_STEPS * 4 {
+                        depth -= 0.02;
+                        // The navigation has the receiver 1 m/s faster than the tanker.
+                        push(&mut out, true, x, y, depth);
+                        edit(&mut out, &|i| i.nav.lon.v_mps = 1.0);
+                    }
+                }
+                Segment::Off(n) => (0..n).for_each(|_| push(&mut out, true, 1.0, 0.8, depth)),
+                Segment::Lost(n) => (0..n).for_each(|_| push(&mut out, false, x, y, depth)),
+                Segment::Hold(n) => (0..n).for_each(|_| push(&mut out, true, x, y, depth)),
+                Segment::NavBad(n) => {
+                    for _ in 0..n {
+                        push(&mut out, true, x, y, depth);
+                        edit(&mut out, &|i| i.nav.lon.v_mps = f32::NAN);
+                    }
+                }
+                Segment::NavFast(n) => {
+                    for _ in 0..n {
+                        push(&mut out, true, x, y, depth);
+                        edit(&mut out, &|i| i.nav.lon.v_mps = 2.5);
+                    }
+                }
+                Segment::Contact(n) => {
+                    for _ in 0..n {
+                        push(&mut out, true, x, y, depth);
+                        edit(&mut out, &|i| i.probe_contact = true);
+                    }
+                }
+                Segment::Request(r) => {
+                    push(&mut out, true, x, y, depth);
+                    edit(&mut out, &|i| i.request = r);
+                }
+            }
+        }
+        out.truncate(MAX_STEPS * 4);
+        out
     })
 }
 
@@ -140,7 +287,7 @@ enum Allowed {
     TimeoutOrPassed,
 }
 
-/// An independent model of the mode table of `ibvs_core::mode`.
+/// An independent model of the mode tables of `ibvs_core::mode`.
 #[derive(Debug, Default)]
 struct ModeModel {
     mode: Mode,
@@ -150,11 +297,30 @@ struct ModeModel {
     terminal_steps: u32,
     /// The last valid navigation sample (the controller flies on it while navigation is bad).
     last_nav: NavSample,
+    /// Refuelling: the attempt, the last no-go, steps stable at the station, steps in the
+    /// mode, steps since engage.
+    attempt: u8,
+    no_go: Option<NoGoReason>,
+    stable: u32,
+    mode_steps: u32,
+    sortie_steps: u32,
 }
 
 impl ModeModel {
     /// Checks one step of the controller against the table and follows it.
     fn step(
+        &mut self,
+        input: &ControllerInput,
+        out: &ControllerOutput,
+        cfg: &ControllerConfig,
+    ) -> Result<(), String> {
+        match cfg.procedure {
+            Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg)),
+            Procedure::Refuelling => self.step_refuelling(input, out, cfg),
+        }
+    }
+
+    fn step_paper(
         &mut self,
         input: &ControllerInput,
         out: &ControllerOutput,
@@ -176,6 +342,10 @@ impl ModeModel {
         let mut refused = false;
         let stay = Exactly(before, self.reason);
         let brk = |r| Exactly(Mode::Breakaway, Some(r));
+        // Not in the paper's procedure: the controller never reaches them.
+        if matches!(before, Mode::PreContact | Mode::MissedApproach) {
+            return Err(format!("{before:?} in the paper's procedure"));
+        }
         let allowed = if input.request == ModeRequest::Reset && before != Mode::Standby {
             Exactly(Mode::Standby, None)
         } else if engaged && input.request == ModeRequest::Abort {
@@ -230,6 +400,7 @@ impl ModeModel {
                 }
                 Mode::Docked if !input.probe_contact => brk(BreakawayReason::ContactLost),
                 Mode::Docked => stay,
+                Mode::PreContact | Mode::MissedApproach => stay,
             }
         };
         let got = (out.mode, out.breakaway_reason);
@@ -256,6 +427,172 @@ impl ModeModel {
         (self.mode, self.reason) = got;
         Ok(())
     }
+
+    /// The refuelling procedure's table (module doc of `ibvs_core::mode`), on the estimate
+    /// and the predicted miss the step reports.
+    fn step_refuelling(
+        &mut self,
+        input: &ControllerInput,
+        out: &ControllerOutput,
+        cfg: &ControllerConfig,
+    ) -> Result<(), String> {
+        let (md, rc) = (&cfg.modes, &cfg.refuelling);
+        let steps = |t: f32| (t / Controller::PERIOD_S).round() as u32;
+        let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
+        if nav_ok {
+            self.last_nav = input.nav;
+        }
+        self.nav_invalid = if nav_ok {
+            0
+        } else {
+            self.nav_invalid.saturating_add(1)
+        };
+        let before = (self.mode, self.reason, self.attempt, self.no_go);
+        let engaged = !matches!(self.mode, Mode::Standby | Mode::Breakaway);
+        let mut refused = false;
+        let e = out.estimate;
+        let tip = tip_velocity_mps(&self.last_nav);
+        let sq = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
+        let brk = |m: &mut Self, r| {
+            m.mode = Mode::Breakaway;
+            m.reason = Some(r);
+        };
+        let no_go = |m: &mut Self, r| {
+            m.no_go = Some(r);
+            if m.attempt >= rc.max_attempts {
+                brk(m, BreakawayReason::AttemptsExhausted);
+            } else {
+                m.mode = Mode::MissedApproach;
+            }
+        };
+        if input.request == ModeRequest::Reset && self.mode != Mode::Standby {
+            (self.mode, self.reason, self.attempt, self.no_go) = (Mode::Standby, None, 0, None);
+        } else if engaged && input.request == ModeRequest::Abort {
+            brk(self, BreakawayReason::Abort);
+        } else if engaged && self.nav_invalid > md.hold_limit_steps {
+            brk(self, BreakawayReason::NavLost);
+        } else if matches!(
+            self.mode,
+            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
+        ) && tip[2] > md.overspeed_mps
+        {
+            brk(self, BreakawayReason::Overspeed);
+        } else {
+            if engaged {
+                self.sortie_steps += 1;
+                self.mode_steps += 1;
+            }
+            if matches!(
+                self.mode,
+                Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
+            ) {
+                self.meas_invalid = if meas_ok {
+                    0
+                } else {
+                    self.meas_invalid.saturating_add(1)
+                };
+            }
+            let lost = self.meas_invalid > md.hold_limit_steps;
+            let late = self.sortie_steps > steps(rc.sortie_budget_s);
+            let at_station = (e.depth_m - rc.station_depth_m).abs() <= rc.station_depth_tol_m;
+            match self.mode {
+                Mode::Standby if input.request == ModeRequest::Engage => {
+                    if meas_ok && nav_ok {
+                        (self.mode, self.attempt, self.no_go) = (Mode::PreContact, 1, None);
+                        self.sortie_steps = 0;
+                    } else {
+                        refused = true;
+                    }
+                }
+                Mode::Standby | Mode::Breakaway => {}
+                Mode::PreContact if lost => brk(self, BreakawayReason::MeasurementLost),
+                Mode::PreContact if late => brk(self, BreakawayReason::SortieTimeout),
+                Mode::PreContact if e.depth_m < rc.station_depth_m - rc.station_overrun_m => {
+                    brk(self, BreakawayReason::StationOverrun)
+                }
+                Mode::PreContact => {
+                    let sq_tol = |v: f32| v * v;
+                    let stable = sq(e.mean_offset_m) <= sq_tol(rc.station_offset_tol_m)
+                        && at_station
+                        && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
+                            <= sq_tol(rc.station_drogue_speed_tol_mps)
+                        && sq([tip[0], tip[1]]) <= sq_tol(rc.station_relative_speed_tol_mps);
+                    if meas_ok {
+                        self.stable = if stable { self.stable + 1 } else { 0 };
+                    }
+                    if self.stable >= steps(rc.station_dwell_s) {
+                        (self.mode, self.no_go) = (Mode::Approach, None);
+                    }
+                }
+                Mode::Approach if lost => brk(self, BreakawayReason::MeasurementLost),
+                Mode::Approach if sq(e.offset_m) > rc.abort_offset_m * rc.abort_offset_m => {
+                    no_go(self, NoGoReason::OffsetTooLarge)
+                }
+                Mode::Approach if e.depth_m <= rc.commit_depth_m => {
+                    if out.predicted_miss_m > rc.gate_radius_m {
+                        no_go(self, NoGoReason::PredictedMiss);
+                    } else {
+                        self.mode = Mode::Terminal;
+                    }
+                }
+                Mode::Approach => {}
+                Mode::Terminal if input.probe_contact => self.mode = Mode::Docked,
+                Mode::Terminal if e.depth_m < -rc.overshoot_m => {
+                    no_go(self, NoGoReason::PassedDroguePlane)
+                }
+                Mode::Terminal if self.mode_steps > steps(rc.capture_timeout_s) => {
+                    no_go(self, NoGoReason::CaptureTimeout)
+                }
+                Mode::Terminal if meas_ok && out.predicted_miss_m > rc.late_gate_radius_m => {
+                    no_go(self, NoGoReason::LateNoGo)
+                }
+                Mode::Terminal => {}
+                Mode::MissedApproach
+                    if u32::from(self.meas_invalid) > steps(rc.reacquire_limit_s) =>
+                {
+                    brk(self, BreakawayReason::MeasurementLost)
+                }
+                Mode::MissedApproach if late => brk(self, BreakawayReason::SortieTimeout),
+                Mode::MissedApproach => {
+                    if self.mode_steps >= steps(rc.missed_clear_s) && meas_ok && at_station {
+                        self.mode = Mode::PreContact;
+                        self.attempt += 1;
+                    }
+                }
+                Mode::Docked if !input.probe_contact => brk(self, BreakawayReason::ContactLost),
+                Mode::Docked => {}
+            }
+        }
+        if self.mode != Mode::Breakaway {
+            self.reason = None;
+        }
+        let want = (self.mode, self.reason, self.attempt, self.no_go);
+        let got = (out.mode, out.breakaway_reason, out.attempt, out.no_go);
+        if got != want {
+            return Err(format!(
+                "{before:?} -> {got:?}, the table gives {want:?} (model {self:?})"
+            ));
+        }
+        if out.status.contains(StatusFlags::ENGAGE_REFUSED) != refused {
+            return Err(format!("engage refused bit: expected {refused}"));
+        }
+        if self.mode != before.0 {
+            (self.meas_invalid, self.mode_steps, self.stable) = (0, 0, 0);
+        }
+        Ok(())
+    }
+}
+
+/// The probe tip's velocity relative to the tanker, `[right, down, forward]`, for a
+/// navigation sample, as the refuelling procedure's inner loops output it (`C x` with the
+/// lever arm at the probe tip; the engine power column is zero).
+fn tip_velocity_mps(nav: &NavSample) -> [f32; 3] {
+    let tip = ControllerConfig::default().probe_tip_body_m;
+    let lon = Channel::new(&LON, &lever_arm_lon(tip, TRIM.theta_rad), [0.0; 2]);
+    let lat = Channel::new(&LAT, &lever_arm_lat(tip), [0.0; 2]);
+    let [down, fwd] = lon.output(&nav.lon_design_state(0.0));
+    let [right] = lat.output(&nav.lat_design_state());
+    [right, down, fwd]
 }
 
 /// The camera's forward speed relative to the tanker for a navigation sample, m/s: the
@@ -263,7 +600,7 @@ impl ModeModel {
 /// position (`docs/conventions.md`; the generated output row is `[0, 1, 0, 0, 0]` at the CG).
 /// Single-precision, one rounding, as the controller's `C x` gives it.
 fn camera_fwd_mps(nav: &NavSample) -> f32 {
-    let cam = ControllerConfig::default().camera.position_body_m;
+    let cam = ControllerConfig::paper().camera.position_body_m;
     let fwd_per_q = lever_arm_lon(cam, TRIM.theta_rad)[1][3];
     assert_eq!(LON.c_cg[1], [0.0, 1.0, 0.0, 0.0, 0.0], "output row changed");
     nav.lon.v_mps + fwd_per_q * nav.lon.q_radps
@@ -295,7 +632,7 @@ fn check_output(
     prop_assert!(!out.status.contains(StatusFlags::NON_FINITE_COMMAND));
     prop_assert!(out.v_des.is_finite());
     model
-        .step(input, out, &cfg.modes, timeout_steps(cfg))
+        .step(input, out, cfg)
         .map_err(|e| TestCaseError::fail(format!("step {k}: {e}; input {input:?}")))
 }
 
@@ -376,9 +713,26 @@ fn check_wire(cfg: ControllerConfig, bytes: &[u8]) -> Result<(), TestCaseError> 
     Ok(())
 }
 
+fn paper_ibvs() -> ControllerConfig {
+    ControllerConfig::paper()
+}
+
 fn pbvs() -> ControllerConfig {
     ControllerConfig {
         law: OuterLaw::Pbvs,
+        ..ControllerConfig::paper()
+    }
+}
+
+/// The refuelling procedure with two attempts and a 12 s sortie, so that both ends of the
+/// sortie are reached.
+fn refuelling() -> ControllerConfig {
+    ControllerConfig {
+        refuelling: RefuellingConfig {
+            max_attempts: 2,
+            sortie_budget_s: 12.0,
+            ..RefuellingConfig::default()
+        },
         ..ControllerConfig::default()
     }
 }
@@ -387,8 +741,18 @@ proptest! {
     #![proptest_config(cases("IBVS_FUZZ_CASES", 256))]
 
     #[test]
+    fn refuelling_commands_stay_in_limits_and_modes_follow_the_table(inputs in input_sequence()) {
+        check_sequence(refuelling(), &inputs)?;
+    }
+
+    #[test]
+    fn refuelling_sorties_stay_in_limits_and_modes_follow_the_table(inputs in sortie_sequence(refuelling())) {
+        check_sequence(refuelling(), &inputs)?;
+    }
+
+    #[test]
     fn ibvs_commands_stay_in_limits_and_modes_follow_the_table(inputs in input_sequence()) {
-        check_sequence(ControllerConfig::default(), &inputs)?;
+        check_sequence(paper_ibvs(), &inputs)?;
     }
 
     #[test]
@@ -399,7 +763,62 @@ proptest! {
     #[test]
     fn bytes_through_the_link_decoder_into_the_step(c in chunks()) {
         check_wire(ControllerConfig::default(), &bytes_of(&c))?;
+        check_wire(paper_ibvs(), &bytes_of(&c))?;
     }
+}
+
+/// The sortie generator reaches every row of the refuelling table that ends in a mode of its
+/// own: every no-go, every breakaway reason, docking. (Without this the property above could
+/// pass while exercising only the pre-contact station.)
+#[test]
+fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
+    let mut runner = TestRunner::new_with_rng(
+        proptest::test_runner::Config::default(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]),
+    );
+    let strategy = sortie_sequence(refuelling());
+    let mut seen = std::collections::BTreeSet::new();
+    for _ in 0..256 {
+        let inputs = strategy.new_tree(&mut runner).expect("a case").current();
+        let mut ctl = Controller::new(refuelling()).expect("valid configuration");
+        for input in &inputs {
+            let out = ctl.step(input);
+            seen.insert(format!("{:?}", out.mode));
+            if let Some(r) = out.breakaway_reason {
+                seen.insert(format!("{r:?}"));
+            }
+            if let Some(r) = out.no_go {
+                seen.insert(format!("{r:?}"));
+            }
+        }
+    }
+    let every = [
+        "PreContact",
+        "Approach",
+        "Terminal",
+        "Docked",
+        "MissedApproach",
+        "OffsetTooLarge",
+        "PredictedMiss",
+        "LateNoGo",
+        "PassedDroguePlane",
+        "CaptureTimeout",
+        "MeasurementLost",
+        "NavLost",
+        "Overspeed",
+        "AttemptsExhausted",
+        "SortieTimeout",
+        "StationOverrun",
+        "ContactLost",
+        "Abort",
+    ];
+    let missing: Vec<_> = every.iter().filter(|r| !seen.contains(**r)).collect();
+    assert!(
+        missing.is_empty(),
+        "never reached: {missing:?} (reached {seen:?})"
+    );
 }
 
 mod long {
@@ -410,8 +829,15 @@ mod long {
 
         #[test]
         #[ignore = "long fuzzing run: cargo test --release -- --ignored"]
+        fn long_sorties(inputs in sortie_sequence(refuelling())) {
+            check_sequence(refuelling(), &inputs)?;
+        }
+
+        #[test]
+        #[ignore = "long fuzzing run: cargo test --release -- --ignored"]
         fn long_step_sequences(inputs in input_sequence()) {
-            check_sequence(ControllerConfig::default(), &inputs)?;
+            check_sequence(refuelling(), &inputs)?;
+            check_sequence(paper_ibvs(), &inputs)?;
             check_sequence(pbvs(), &inputs)?;
         }
 

@@ -2,7 +2,8 @@
 //!
 //! Every `f32` field of the input is drawn from a mix of ordinary values, huge values, ±0,
 //! subnormals, NaN and ±inf; sequence numbers, discretes and operator requests are arbitrary.
-//! For every step of every sequence, under the IBVS (default) and the PBVS configuration:
+//! For every step of every sequence, under the refuelling procedure (the default) and the
+//! paper's procedure with IBVS and with PBVS:
 //! - `step` does not panic and every command is finite and inside `cfg.actuators`;
 //! - the desired velocity is finite and inside the velocity limits (breakaway included);
 //! - the integrators are finite and inside `integrator_limit_m`;
@@ -10,7 +11,7 @@
 //!   (valid or under one error), and the output's error matches the counter that moved.
 //!
 //! And with a plausible frame, plausible navigation and `Engage`, a fresh controller is in
-//! approach after its first step.
+//! approach (paper) or pre-contact (refuelling) after its first step.
 //!
 //! Inputs come in runs (one input repeated for up to 40 steps, its sequence number advancing)
 //! so that the hold limits, the terminal phase and docking are reached, not only standby.
@@ -21,7 +22,7 @@ use ibvs_core::controller::StatusFlags;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::NavSample;
 use ibvs_core::{
-    Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw,
+    Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw, Procedure,
 };
 use proptest::prelude::*;
 use proptest::test_runner::Config;
@@ -37,14 +38,18 @@ fn config() -> Config {
     Config::with_cases(cases)
 }
 
-fn ibvs_config() -> ControllerConfig {
+fn refuelling_config() -> ControllerConfig {
     ControllerConfig::default()
+}
+
+fn ibvs_config() -> ControllerConfig {
+    ControllerConfig::paper()
 }
 
 fn pbvs_config() -> ControllerConfig {
     ControllerConfig {
         law: OuterLaw::Pbvs,
-        ..ControllerConfig::default()
+        ..ControllerConfig::paper()
     }
 }
 
@@ -169,6 +174,7 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                         image_x: x,
                         image_y: y,
                         depth_m: depth,
+                        probe_tip: None,
                     },
                     nav,
                     probe_contact,
@@ -259,8 +265,10 @@ fn check_invariants(
         prop_assert!(v.is_finite(), "v_des not finite: {at}");
         prop_assert!(v.x_right_mps.abs() <= vl.max_lateral_mps, "v_des.x: {at}");
         prop_assert!(v.y_down_mps.abs() <= vl.max_vertical_mps, "v_des.y: {at}");
+        // Backing off: the breakaway's speed, or (refuelling) at most the closing limit.
+        let aft = md.breakaway_aft_mps.max(vl.max_closing_mps);
         prop_assert!(
-            -md.breakaway_aft_mps <= v.z_fwd_mps && v.z_fwd_mps <= vl.max_closing_mps,
+            -aft <= v.z_fwd_mps && v.z_fwd_mps <= vl.max_closing_mps,
             "v_des.z: {at}"
         );
 
@@ -320,6 +328,7 @@ fn plausible_frame() -> impl Strategy<Value = CameraMeasurement> {
             image_x: x,
             image_y: y,
             depth_m: z,
+            probe_tip: None,
         }
     })
 }
@@ -336,7 +345,11 @@ fn engages_on_first_step(
         probe_contact: false,
         request: ModeRequest::Engage,
     });
-    prop_assert_eq!(out.mode, Mode::Approach, "{:?}", out);
+    let engaged = match cfg.procedure {
+        Procedure::Paper => Mode::Approach,
+        Procedure::Refuelling => Mode::PreContact,
+    };
+    prop_assert_eq!(out.mode, engaged, "{:?}", out);
     prop_assert_eq!(out.measurement_error, None);
     prop_assert_eq!(out.nav_error, None);
     prop_assert!(!out.status.contains(StatusFlags::ENGAGE_REFUSED));
@@ -346,6 +359,19 @@ fn engages_on_first_step(
 
 proptest! {
     #![proptest_config(config())]
+
+    #[test]
+    fn refuelling_step_keeps_its_invariants_on_arbitrary_inputs(inputs in input_sequence()) {
+        check_invariants(refuelling_config(), &inputs)?;
+    }
+
+    #[test]
+    fn refuelling_engages_on_the_first_plausible_step(
+        m in plausible_frame(),
+        nav in plausible_nav(),
+    ) {
+        engages_on_first_step(refuelling_config(), m, nav)?;
+    }
 
     #[test]
     fn ibvs_step_keeps_its_invariants_on_arbitrary_inputs(inputs in input_sequence()) {

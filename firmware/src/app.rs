@@ -674,7 +674,7 @@ mod tests {
         assert_eq!(
             board.events,
             [Event::ModeChanged {
-                mode: Mode::Approach,
+                mode: Mode::PreContact,
                 reason: None,
                 step: 1
             }]
@@ -764,7 +764,7 @@ mod tests {
         assert_eq!(f.len(), 1 + 1 + 10 + 40 + 1);
         assert_eq!(f[1].output.command.as_array(), trim_command());
         assert_eq!(f[1].output.step, 0);
-        assert_eq!(f[2].output.mode, Mode::Approach);
+        assert_eq!(f[2].output.mode, Mode::PreContact);
         let last = f[f.len() - 1];
         assert_eq!(last.output.mode, Mode::Breakaway);
         assert_eq!(
@@ -808,7 +808,10 @@ mod tests {
         board.periods = 1;
         app.poll(&mut board);
         let f = board.frames();
-        assert_eq!((f[0].output.mode, f[0].echo_seq), (Mode::Approach, Some(2)));
+        assert_eq!(
+            (f[0].output.mode, f[0].echo_seq),
+            (Mode::PreContact, Some(2))
+        );
         assert_eq!((f[1].echo_seq, f[1].counters.frames_dropped), (Some(4), 1));
     }
 
@@ -833,10 +836,10 @@ mod tests {
         assert_eq!(
             modes,
             [
-                Mode::Approach,
+                Mode::PreContact,
                 Mode::Standby,
-                Mode::Approach,
-                Mode::Approach
+                Mode::PreContact,
+                Mode::PreContact
             ]
         );
         assert_eq!(

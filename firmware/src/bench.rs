@@ -6,10 +6,12 @@
 //! says `bench`, the `f405` board at boot when built with the `bench` feature, and each logs
 //! the result as one JSON line (`docs/benchmarks.md`, "On hardware").
 //!
-//! The controller steps through one scripted docking that visits every path of the step:
-//! engage, approach (valid frames, perturbed navigation), a held frame, the terminal entry
-//! (with its offset check), the blind phase, contact, contact lost (breakaway with
-//! navigation), breakaway without navigation (open loop). Each path's largest cost is kept,
+//! The controller (the default configuration: the refuelling procedure, set-back camera)
+//! steps through one scripted sortie that visits every path of the step: engage, the
+//! pre-contact station, the contact approach, a held frame, a commit with the gate's
+//! prediction that is a no-go, the missed approach, back at the station, a commit that goes
+//! (capture entry), the capture, contact, contact lost (breakaway with navigation),
+//! breakaway without navigation (open loop). Each path's largest cost is kept,
 //! with the largest stack any step used (where the counter measures it:
 //! [`CostCounter::stack_of`]). Then the link: one measurement frame decoded (and again with
 //! the navigation at exactly zero: each zero byte is a COBS block boundary, dearer than a
@@ -20,6 +22,8 @@
 
 use core::hint::black_box;
 
+use ibvs_core::estimator::TipGeometry;
+use ibvs_core::gains::TRIM;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
     CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Uplink, encode_downlink,
@@ -33,12 +37,14 @@ use crate::app::CostCounter;
 use crate::one_step::engage_input;
 
 /// The paths of the step the script visits, in order.
-pub const PATHS: [&str; 8] = [
+pub const PATHS: [&str; 10] = [
     "engage",
+    "pre_contact",
     "approach",
     "hold",
-    "terminal_entry",
-    "terminal",
+    "missed_approach",
+    "capture_entry",
+    "capture",
     "docked",
     "breakaway",
     "breakaway_open_loop",
@@ -48,7 +54,7 @@ pub const PATHS: [&str; 8] = [
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Costs {
     /// The largest step cost of each path of [`PATHS`].
-    pub step: [u32; 8],
+    pub step: [u32; 10],
     /// The largest stack a step used, bytes (`None`: the counter does not measure it).
     pub step_stack_bytes: Option<u32>,
     /// Steps the script ran.
@@ -137,14 +143,34 @@ fn decode_cost<C: CostCounter>(frame: &[u8]) -> u32 {
     cost
 }
 
-/// Runs the scripted docking; the step costs per path and the last output.
+/// A frame of the drogue `right`, `down` of the probe tip and `depth` ahead of it, as the
+/// configuration's (set-back) camera sees it, with the probe tip's marker; `k` adds a
+/// tracker's noise of a ten-thousandth (the frozen-frame check rejects identical frames).
+fn frame(
+    input: &mut ControllerInput,
+    cfg: &ControllerConfig,
+    [right, down, depth]: [f32; 3],
+    k: u32,
+) {
+    let tip = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad);
+    let t = tip.tip_from_camera_m();
+    let z = depth + t[2];
+    let m = &mut input.measurement;
+    m.image_x = (right + t[0]) / z + 1e-4 * (k % 3) as f32;
+    m.image_y = (down + t[1]) / z;
+    m.depth_m = z;
+    m.probe_tip = Some(tip.tip_image());
+}
+
+/// Runs the scripted sortie; the step costs per path and the last output.
 fn steps<C: CostCounter>(
     costs: &mut Costs,
 ) -> Option<(Controller, ControllerInput, ControllerOutput)> {
-    let mut controller = Controller::new(ControllerConfig::default()).ok()?;
+    let cfg = ControllerConfig::default();
+    let mut controller = Controller::new(cfg).ok()?;
     let mut input = engage_input();
-    input.nav = perturbed_nav();
     let mut last = ControllerOutput::default();
+    let mut k = 0u32;
     let mut run = |path: usize, input: &mut ControllerInput, controller: &mut Controller| {
         input.measurement.seq = input.measurement.seq.wrapping_add(1);
         let ((out, cost), stack) = C::stack_of(|| {
@@ -160,41 +186,96 @@ fn steps<C: CostCounter>(
         input.request = ModeRequest::None;
         out
     };
-    // Engage, then approach from the paper's start, closing.
+    // Engage at the station, then hold it until stable (1 s) and the approach starts.
+    let station = cfg.refuelling.station_depth_m;
+    frame(&mut input, &cfg, [0.02, -0.01, station], k);
     run(0, &mut input, &mut controller);
-    for k in 0..30 {
-        input.measurement.depth_m = 6.0 - 0.1 * k as f32;
-        last = run(1, &mut input, &mut controller);
+    for _ in 0..60 {
+        k += 1;
+        frame(&mut input, &cfg, [0.02, -0.01, station], k);
+        run(1, &mut input, &mut controller);
     }
-    // A frame the tracker lost: the outer loop holds.
-    input.measurement.tracked = false;
+    let approached = controller.mode() == Mode::Approach;
+    // Close at 1 m/s (the navigation says so) with the drogue drifting off: a frame lost on
+    // the way, and at the commit depth the drogue 0.4 m off: a no-go.
+    input.nav.lon.v_mps = 1.0;
+    let mut depth = station;
+    while depth > cfg.refuelling.commit_depth_m + 0.01 {
+        depth -= 0.02;
+        k += 1;
+        let off = 0.4 * (station - depth) / (station - cfg.refuelling.commit_depth_m);
+        frame(&mut input, &cfg, [off.min(0.4), 0.0, depth], k);
+        run(2, &mut input, &mut controller);
+        if k == 80 {
+            input.measurement.tracked = false;
+            run(3, &mut input, &mut controller);
+            input.measurement.tracked = true;
+        }
+    }
+    k += 1;
+    frame(
+        &mut input,
+        &cfg,
+        [0.4, 0.0, cfg.refuelling.commit_depth_m - 0.01],
+        k,
+    );
     run(2, &mut input, &mut controller);
-    input.measurement.tracked = true;
-    // Terminal entry: close and nearly centred (offset 0.06 m, checked against 0.3 m).
-    input.measurement.depth_m = 0.6;
-    input.measurement.image_x = 0.1;
-    input.measurement.image_y = -0.01;
-    run(3, &mut input, &mut controller);
-    let entered = controller.mode() == Mode::Terminal;
-    // The blind phase (frames lost near the drogue), contact, docked, contact lost.
-    input.measurement.tracked = false;
-    for _ in 0..10 {
-        run(4, &mut input, &mut controller);
+    let no_go = controller.mode() == Mode::MissedApproach;
+    // The missed approach: back to the station, and the next attempt's pre-contact.
+    input.nav = NavSample::default();
+    for _ in 0..400 {
+        k += 1;
+        frame(&mut input, &cfg, [0.02, -0.01, station], k);
+        let path = if controller.mode() == Mode::MissedApproach {
+            4
+        } else {
+            1
+        };
+        run(path, &mut input, &mut controller);
+        if controller.mode() == Mode::Approach {
+            break;
+        }
     }
+    // Close on a centred drogue through the commit depth into the capture.
+    input.nav.lon.v_mps = 1.0;
+    let mut depth = station;
+    let mut entered = false;
+    while depth > 0.02 {
+        depth -= 0.02;
+        k += 1;
+        frame(&mut input, &cfg, [0.01, 0.0, depth], k);
+        let path = match controller.mode() {
+            Mode::Approach if depth <= cfg.refuelling.commit_depth_m + 0.02 => 5,
+            Mode::Approach => 2,
+            _ => 6,
+        };
+        run(path, &mut input, &mut controller);
+        entered |= controller.mode() == Mode::Terminal;
+    }
+    // Contact, docked, contact lost.
+    input.nav = NavSample::default();
     input.probe_contact = true;
     for _ in 0..5 {
-        run(5, &mut input, &mut controller);
+        k += 1;
+        frame(&mut input, &cfg, [0.01, 0.0, 0.0], k);
+        run(7, &mut input, &mut controller);
     }
     input.probe_contact = false;
     for _ in 0..10 {
-        run(6, &mut input, &mut controller);
+        k += 1;
+        frame(&mut input, &cfg, [0.01, 0.0, 0.0], k);
+        run(8, &mut input, &mut controller);
     }
     // The navigation lost in breakaway: open loop.
     input.nav = NavSample::from_array([f32::NAN; 12]);
     for _ in 0..5 {
-        last = run(7, &mut input, &mut controller);
+        last = run(9, &mut input, &mut controller);
     }
-    costs.script_ok = entered && controller.mode() == Mode::Breakaway && last.status.0 != 0;
+    costs.script_ok = approached
+        && no_go
+        && entered
+        && controller.mode() == Mode::Breakaway
+        && last.status.0 != 0;
     Some((controller, input, last))
 }
 
@@ -254,7 +335,7 @@ mod tests {
     #[test]
     fn json_line_is_json() {
         let c = Costs {
-            step: [1, 2, 3, 4, 5, 6, 7, 8],
+            step: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10],
             step_stack_bytes: Some(200),
             ..Costs::default()
         };
@@ -264,7 +345,7 @@ mod tests {
             "{text}"
         );
         assert!(
-            text.contains("\"step_max\": 8, \"step_stack_bytes\": 200, "),
+            text.contains("\"step_max\": 10, \"step_stack_bytes\": 200, "),
             "{text}"
         );
         assert!(text.ends_with("\"encode_command\": 0}"), "{text}");
@@ -275,9 +356,9 @@ mod tests {
     fn the_script_visits_every_path_and_measures_real_frames() {
         let c = measure::<NoCounter>();
         assert!(c.script_ok, "{c:?}");
-        assert_eq!(c.steps, 1 + 30 + 1 + 1 + 10 + 5 + 10 + 5);
-        assert!((73..=81).contains(&c.measurement_frame_len), "{c:?}");
-        assert!((93..=251).contains(&c.command_frame_len), "{c:?}");
+        assert!(c.steps > 300, "{c:?}");
+        assert!((74..=90).contains(&c.measurement_frame_len), "{c:?}");
+        assert!((126..=297).contains(&c.command_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
         assert_eq!(c.step_stack_bytes, None);
     }

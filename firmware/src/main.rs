@@ -26,6 +26,9 @@
 #![cfg_attr(target_os = "none", no_main)]
 
 pub mod app;
+// The path benchmark: on the boards only with the `bench` feature (it is 7 KB of flash the
+// flight build does not carry); on the host always, for its tests.
+#[cfg(any(feature = "bench", not(target_os = "none")))]
 pub mod bench;
 pub mod one_step;
 

@@ -4,7 +4,8 @@
 //! Place in the data flow: this stands in for the real firmware's control task. It builds
 //! the controller from the default configuration, feeds it one [`ControllerInput`] with the
 //! drogue in view, valid navigation and an `Engage` request, and checks the answer: the
-//! controller must have entered [`Mode::Approach`] and every command must be finite.
+//! controller must have entered [`Mode::PreContact`] (the default configuration flies the
+//! refuelling procedure) and every command must be finite.
 //!
 //! Invariants: nothing here allocates or panics; every failure is a named [`OneStepError`].
 
@@ -34,6 +35,7 @@ pub fn engage_input() -> ControllerInput {
             image_x: START_IMAGE_X,
             image_y: START_IMAGE_Y,
             depth_m: START_DEPTH_M,
+            probe_tip: None,
         },
         nav: NavSample::default(),
         probe_contact: false,
@@ -46,8 +48,9 @@ pub fn engage_input() -> ControllerInput {
 pub enum OneStepError {
     /// The default configuration was rejected.
     Config(ConfigError),
-    /// The engage request did not lead to the approach mode.
-    NotApproach {
+    /// The engage request did not lead to the pre-contact station (the default
+    /// configuration's refuelling procedure).
+    NotEngaged {
         /// The mode after the step.
         mode: Mode,
         /// The step's status bits (e.g. [`StatusFlags::ENGAGE_REFUSED`]).
@@ -61,9 +64,9 @@ impl fmt::Display for OneStepError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Config(e) => write!(f, "{e}"),
-            Self::NotApproach { mode, status } => write!(
+            Self::NotEngaged { mode, status } => write!(
                 f,
-                "engage did not enter approach: mode {mode:?}, status {:#06x}",
+                "engage did not enter pre-contact: mode {mode:?}, status {:#06x}",
                 status.0
             ),
             Self::NonFiniteCommand([a, b, c, d]) => write!(
@@ -113,8 +116,8 @@ pub fn run() -> Result<ControllerOutput, OneStepError> {
     let mut controller =
         Controller::new(ControllerConfig::default()).map_err(OneStepError::Config)?;
     let out = controller.step(&engage_input());
-    if out.mode != Mode::Approach {
-        return Err(OneStepError::NotApproach {
+    if out.mode != Mode::PreContact {
+        return Err(OneStepError::NotEngaged {
             mode: out.mode,
             status: out.status,
         });
@@ -133,7 +136,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn one_step_enters_approach_with_finite_commands() {
+    fn one_step_enters_pre_contact_with_finite_commands() {
         let out = run();
         assert!(out.is_ok(), "{out:?}");
     }

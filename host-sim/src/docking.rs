@@ -1,7 +1,7 @@
 //! The docking check: when the probe tip reaches the drogue's capture plane, was it a dock?
 //!
-//! Definition (paper-notes, "What docked means"; model-data.md, "Docking check"): at the first
-//! instant the probe tip reaches the drogue plane (depth, drogue x minus probe-tip x in the
+//! Definition (docs/paper.md, "What "docked" means"; docs/models.md, "Docking check"): at the
+//! first instant the probe tip reaches the drogue plane (depth, drogue x minus probe-tip x in the
 //! tanker frame, crosses zero), the run docks when the radial offset of the tip from the
 //! drogue centre is below the capture radius and the closing speed is inside the band that
 //! opens the coupling without damage. Anything else is a miss.
@@ -9,7 +9,8 @@
 //! The crossing instant is found by linear interpolation between two simulation samples, so
 //! the check is exact to the integration step, not to the control step.
 //!
-//! Invariant: [`PlaneCrossing::observe`] reports at most one crossing per run.
+//! Invariant: [`PlaneCrossing::observe`] reports each crossing from ahead of the plane to at
+//! or behind it once (a probe that backs off and comes again crosses again).
 
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -19,7 +20,7 @@ pub const CLOSING_BAND_MPS: (f64, f64) = (0.5, 2.6);
 
 /// Clearance from the drogue centre below which passing the drogue plane faster than the
 /// closing band is unsafe even after a breakaway, m: one canopy diameter (0.6096 m,
-/// model-data.md), so the probe passes clear of the canopy's rim.
+/// docs/models.md, "Hose and drogue"), so the probe passes clear of the canopy's rim.
 pub const FAST_PASS_CLEARANCE_M: f64 = 0.6096;
 
 /// What happened at the drogue plane.
@@ -35,16 +36,15 @@ pub struct Contact {
     pub docked: bool,
 }
 
-/// Watches the drogue-minus-probe-tip vector for the first crossing of the drogue plane.
+/// Watches the drogue-minus-probe-tip vector for crossings of the drogue plane.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PlaneCrossing {
     previous: Option<(f64, Vector3<f64>)>,
-    done: bool,
 }
 
 impl PlaneCrossing {
     /// Feeds one sample (`time`, drogue centre minus probe tip in tanker axes); returns the
-    /// contact at the first sample whose depth is at or below zero after a positive one.
+    /// contact at every sample whose depth is at or below zero after a positive one.
     pub fn observe(
         &mut self,
         time_s: f64,
@@ -53,10 +53,9 @@ impl PlaneCrossing {
     ) -> Option<Contact> {
         let prev = self.previous.replace((time_s, drogue_from_tip_m));
         let (t0, r0) = prev?;
-        if self.done || !(r0.x > 0.0 && drogue_from_tip_m.x <= 0.0) {
+        if !(r0.x > 0.0 && drogue_from_tip_m.x <= 0.0) {
             return None;
         }
-        self.done = true;
         let f = r0.x / (r0.x - drogue_from_tip_m.x);
         let at = r0 + (drogue_from_tip_m - r0) * f;
         let miss_m = at.y.hypot(at.z);
@@ -85,11 +84,16 @@ mod tests {
         assert!((hit.miss_m - 0.2).abs() < 1e-12);
         assert!((hit.closure_mps - 2.0).abs() < 1e-9);
         assert!(hit.docked);
-        assert_eq!(c.observe(0.02, Vector3::new(0.01, 0.0, 0.0), 0.3), None);
         assert_eq!(
-            c.observe(0.03, Vector3::new(-0.01, 0.0, 0.0), 0.3),
+            c.observe(0.015, Vector3::new(-0.02, 0.3, 0.0), 0.3),
             None,
-            "only the first crossing counts"
+            "staying behind the plane is not another crossing"
+        );
+        assert_eq!(c.observe(0.02, Vector3::new(0.01, 0.0, 0.0), 0.3), None);
+        let again = c.observe(0.03, Vector3::new(-0.01, 0.0, 0.0), 0.3);
+        assert!(
+            again.is_some_and(|a| a.docked && (a.time_s - 0.025).abs() < 1e-12),
+            "backed off and came again: a second crossing"
         );
     }
 

@@ -9,14 +9,23 @@
 //!        └──── surface and throttle commands ◄── sim::FlightComputer (core, or firmware)
 //! ```
 //!
-//! It also designs the controller: [`receiver`] trims, [`linearize`] linearises,
-//! [`synthesis`] discretises and solves the Riccati equations, and writes the core's
-//! generated gains module. [`docking`] decides what counts as a dock; [`output`] writes the
-//! CSV, JSON and plots of a run; [`record`] records a run in full (inputs, hose, camera image,
-//! link frames), from which [`flight_log`] writes the MCAP flight-test log and [`animate`] the
-//! GIF.
+//! The modules, in the order of the data flow:
 //!
-//! Invariant: every random process takes a seed (none in this slice: calm air, ideal camera).
+//! - the aircraft and its design: [`receiver`] (the F-16 model, trim), [`linearize`],
+//!   [`synthesis`] (discretisation, Riccati, the core's generated gains module);
+//! - the world: [`world`] (hose and drogue, Dryden turbulence, tanker wake, bow wave, the LED
+//!   and ideal cameras, the INS, fault injection);
+//! - a run: [`scenario`] (scenario files, presets, dispersion), [`sim`] (the closed loop),
+//!   [`docking`] (what counts as a dock), [`pil`] (the flight computer inside QEMU over its
+//!   serial link);
+//! - what a run gives: [`output`] (CSV, JSON), [`plot`], [`record`] (a run recorded in full:
+//!   inputs, hose, camera image, link frames) and from it [`flight_log`] (the MCAP
+//!   flight-test log) and [`animate`] (the GIF), [`paper`] (the paper's experiments),
+//!   [`montecarlo`] (campaigns, shards, merge);
+//! - the target benchmarks are the `target-bench` binary.
+//!
+//! Invariant: every random process takes a seed (turbulence, camera noise, INS errors,
+//! dispersion, link faults); the same scenario file gives the same run, bit for bit.
 
 pub mod animate;
 pub mod docking;

@@ -9,7 +9,7 @@
 //! Outputs: the camera velocity relative to the tanker in tanker axes, split into the part
 //! from the CG's motion (`C_cg`, numerical) and the lever-arm part `omega x p_cam`
 //! (analytic, [`ibvs_core::kinematics`]); `tests` checks that they add up to the numerical
-//! Jacobian of the full camera velocity (paper-notes item 4).
+//! Jacobian of the full camera velocity (docs/paper.md, item 4).
 //!
 //! Invariant: calm air; the tanker flies north, level, at the trim speed, so tanker axes are
 //! NED axes and the velocity relative to the tanker is `v_ned - (V0, 0, 0)`.
@@ -226,7 +226,7 @@ mod tests {
 
     #[test]
     fn kinematic_rows_hold_the_dominant_terms() {
-        // Paper-notes item 4: climb rate V0 (theta - alpha) and side velocity V0 (psi + beta).
+        // docs/paper.md, item 4: climb rate V0 (theta - alpha) and side velocity V0 (psi + beta).
         let (_, trim, lin) = setup();
         let v0 = trim.speed_mps;
         let down = lin.c_cg.row(0);

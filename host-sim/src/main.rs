@@ -10,7 +10,7 @@
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
 //! host-sim paper     [--out DIR] [--seeds N]
-//! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M] [--out DIR]
+//! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M | --shards M] [--out DIR]
 //! host-sim montecarlo --scenario NAME|PATH --show-run I
 //! host-sim montecarlo merge DIR... [--out DIR]
 //! ```
@@ -155,15 +155,21 @@ struct MonteCarloArgs {
     /// Parallel runs (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
-    /// Run only part K of M (1-based; runs i with i mod M = K - 1), to merge later.
+    /// Run only part K of M (1-based; runs i with i mod M = K - 1), to merge later. Without
+    /// it, a Slurm array task takes its part from SLURM_ARRAY_TASK_ID, and a Kubernetes
+    /// Indexed Job from JOB_COMPLETION_INDEX with --shards.
     #[arg(long, value_name = "K/M")]
     shard: Option<Shard>,
+    /// Number of parts of a Kubernetes Indexed Job (its completions), whose environment gives
+    /// the part's 0-based index in JOB_COMPLETION_INDEX.
+    #[arg(long, value_name = "M", conflicts_with = "shard")]
+    shards: Option<u64>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
     out: PathBuf,
     /// Print the scenario file of run I (dispersion applied) instead, to fly it with `dock`
     /// (with `--animate` and `--log` to watch or log it).
-    #[arg(long, value_name = "I", conflicts_with_all = ["runs", "jobs", "shard"])]
+    #[arg(long, value_name = "I", conflicts_with_all = ["runs", "jobs", "shard", "shards"])]
     show_run: Option<u64>,
 }
 
@@ -298,12 +304,22 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
         return Ok(());
     }
     let runs = args.runs.ok_or("--runs is required")?;
-    let indices = montecarlo::indices(runs, args.shard);
+    let shard = match args.shard {
+        Some(s) => Some(s),
+        None => {
+            let from_env = montecarlo::shard_from_env(|v| std::env::var(v).ok(), args.shards)?;
+            if let Some((s, source)) = from_env {
+                eprintln!("shard {s} from {source}");
+            }
+            from_env.map(|(s, _)| s)
+        }
+    };
+    let indices = montecarlo::indices(runs, shard);
     let started = std::time::Instant::now();
     let lines = montecarlo::run_campaign(&f, &indices, args.jobs)?;
     let wall_s = started.elapsed().as_secs_f64();
     let summary =
-        montecarlo::write_campaign(&args.out, &CampaignMeta::new(&f, runs, args.shard), &lines)?;
+        montecarlo::write_campaign(&args.out, &CampaignMeta::new(&f, runs, shard), &lines)?;
     println!("{}", montecarlo::one_line(&summary));
     eprintln!(
         "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png}}",
@@ -344,8 +360,9 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
 
 fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     let s = synthesis::nominal()?;
+    let refuel = synthesis::nominal_refuelling()?;
     if let Some(path) = &write_core {
-        std::fs::write(path, codegen::render(&s))
+        std::fs::write(path, codegen::render(&s, &refuel))
             .map_err(|e| format!("{}: {e}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }

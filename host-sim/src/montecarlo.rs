@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::docking::{CLOSING_BAND_MPS, FAST_PASS_CLEARANCE_M};
 use crate::output::OutputError;
-use crate::plot::{self, PALETTE};
+use crate::plot::{self, PALETTE, dbg};
 use crate::scenario::{DispersionSection, ScenarioError, ScenarioFile};
 use crate::sim::{self, Outcome, Run};
 use crate::world::drogue::CAPTURE_RADIUS_M;
@@ -125,6 +125,121 @@ impl fmt::Display for Shard {
     }
 }
 
+/// Where a shard was taken from when `--shard` was not given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShardSource {
+    /// A Slurm job array: `SLURM_ARRAY_TASK_ID` within `SLURM_ARRAY_TASK_MIN` and
+    /// `SLURM_ARRAY_TASK_COUNT`.
+    SlurmArray,
+    /// A Kubernetes Indexed Job: `JOB_COMPLETION_INDEX` (0-based) of `--shards M`.
+    IndexedJob,
+}
+
+impl fmt::Display for ShardSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::SlurmArray => "the Slurm job array (SLURM_ARRAY_TASK_ID)",
+            Self::IndexedJob => "the Kubernetes Indexed Job (JOB_COMPLETION_INDEX)",
+        })
+    }
+}
+
+/// The shard of a job of a batch system, from its environment (`lookup` reads a variable),
+/// for a campaign run without `--shard`. `shards` is `--shards M`, the number of completions
+/// of a Kubernetes Indexed Job (whose environment carries the index only).
+///
+/// - Slurm job arrays (`sbatch --array=A-B`): shard
+///   `SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN + 1` of `SLURM_ARRAY_TASK_COUNT`. The array must be a contiguous range of step 1 (a list
+///   or a step would leave runs unflown, so it is refused); `--shards`, if given, must equal
+///   the count.
+/// - Kubernetes Indexed Jobs: shard `JOB_COMPLETION_INDEX + 1` of `--shards M`, which is then
+///   required.
+/// - Neither: `Ok(None)`, the whole campaign; `--shards` alone is an error, as is an
+///   environment that names both.
+///
+/// Every refusal names the variable and what was wrong, so a batch job fails at once instead
+/// of flying the wrong runs.
+pub fn shard_from_env(
+    lookup: impl Fn(&str) -> Option<String>,
+    shards: Option<u64>,
+) -> Result<Option<(Shard, ShardSource)>, String> {
+    let num = |name: &str| -> Result<Option<u64>, String> {
+        lookup(name)
+            .map(|v| {
+                v.trim()
+                    .parse::<u64>()
+                    .map_err(|_| format!("{name}={v:?} is not a non-negative integer"))
+            })
+            .transpose()
+    };
+    let slurm = num("SLURM_ARRAY_TASK_ID")?;
+    let indexed = num("JOB_COMPLETION_INDEX")?;
+    match (slurm, indexed) {
+        (Some(_), Some(_)) => Err(
+            "both SLURM_ARRAY_TASK_ID and JOB_COMPLETION_INDEX are set: say which shard with --shard K/M"
+                .into(),
+        ),
+        (Some(id), None) => {
+            let need = |name: &str| {
+                num(name)?.ok_or_else(|| format!("SLURM_ARRAY_TASK_ID is set but {name} is not"))
+            };
+            let (min, max, count) = (
+                need("SLURM_ARRAY_TASK_MIN")?,
+                need("SLURM_ARRAY_TASK_MAX")?,
+                need("SLURM_ARRAY_TASK_COUNT")?,
+            );
+            if let Some(step) = num("SLURM_ARRAY_TASK_STEP")?
+                && step != 1
+            {
+                return Err(format!(
+                    "the Slurm array steps by {step}: use a contiguous range (--array=A-B)"
+                ));
+            }
+            if count == 0 || max < min || max - min + 1 != count {
+                return Err(format!(
+                    "the Slurm array {min}..={max} of {count} tasks is not a contiguous range: use --array=A-B"
+                ));
+            }
+            if !(min..=max).contains(&id) {
+                return Err(format!(
+                    "SLURM_ARRAY_TASK_ID={id} is outside the array {min}..={max}"
+                ));
+            }
+            if let Some(m) = shards
+                && m != count
+            {
+                return Err(format!(
+                    "--shards {m} differs from SLURM_ARRAY_TASK_COUNT={count}"
+                ));
+            }
+            Ok(Some((
+                Shard {
+                    k: id - min + 1,
+                    m: count,
+                },
+                ShardSource::SlurmArray,
+            )))
+        }
+        (None, Some(index)) => {
+            let m = shards.ok_or(
+                "JOB_COMPLETION_INDEX is set: give the Indexed Job's completions as --shards M",
+            )?;
+            if index >= m {
+                return Err(format!(
+                    "JOB_COMPLETION_INDEX={index} is not below --shards {m}"
+                ));
+            }
+            Ok(Some((Shard { k: index + 1, m }, ShardSource::IndexedJob)))
+        }
+        (None, None) => match shards {
+            Some(m) => Err(format!(
+                "--shards {m} without JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID: give --shard K/M"
+            )),
+            None => Ok(None),
+        },
+    }
+}
+
 /// The run indices of a campaign of `runs` runs in `shard` (all of them without one).
 pub fn indices(runs: u64, shard: Option<Shard>) -> Vec<u64> {
     match shard {
@@ -150,6 +265,8 @@ pub struct RunInputs {
     pub mount_pitch_error_deg: f64,
     /// Receiver cg, fraction of the mean chord.
     pub xcg: f64,
+    /// Navigation latency, control steps (`None`: perfect navigation).
+    pub nav_latency_steps: Option<u32>,
 }
 
 impl RunInputs {
@@ -163,6 +280,10 @@ impl RunInputs {
             mount_error_m: f.camera.mount_error_m,
             mount_pitch_error_deg: f.camera.mount_pitch_error_deg,
             xcg: f.receiver.xcg,
+            nav_latency_steps: match f.navigation.model {
+                crate::scenario::NavModel::Ins => Some(f.navigation.ins.latency_steps),
+                crate::scenario::NavModel::Ideal => None,
+            },
         }
     }
 }
@@ -240,12 +361,20 @@ pub struct RunRecord {
     /// behind: `[right, up]`, m (direction interpolated between control steps, length the
     /// miss).
     pub plane_offset_m: Option<[f64; 2]>,
-    /// A crossing after a breakaway.
+    /// The first crossing after the controller stopped pushing (a missed approach or a
+    /// breakaway).
     pub crossed_after_breakaway: Option<Crossing>,
     /// Time of the decisive event, s.
     pub time_s: f64,
     /// The controller's breakaway reason, if it broke away (before or after the plane).
     pub breakaway_reason: Option<String>,
+    /// Attempts flown (1 for the paper's procedure).
+    pub attempts: u8,
+    /// How each attempt ended, in order (`docked`, `no-go: <reason>`, `breakaway: <reason>`,
+    /// `unfinished`; `struck` appended when the probe struck in it).
+    pub attempt_ends: Vec<String>,
+    /// Docked at the first attempt.
+    pub first_attempt_docked: bool,
 }
 
 /// Where the probe tip crossed the drogue plane, `[right, up]` of the tip relative to the
@@ -272,28 +401,28 @@ fn plane_offset(run: &Run) -> Option<[f64; 2]> {
     })
 }
 
-/// True when `run` ended in an unsafe state (module doc): the probe tip crossed the drogue
-/// plane before any breakaway at or outside the capture radius, or crossed it faster than
-/// the closing band within one canopy diameter of the drogue centre.
+/// True when `run` ended in an unsafe state (module doc): the probe tip struck (crossed the
+/// drogue plane outside the capture radius or the closing band while the controller was
+/// still pushing, i.e. before any missed approach or breakaway of that attempt), or crossed
+/// it (at any time) faster than the closing band within one canopy diameter of the drogue
+/// centre.
 pub fn is_unsafe(run: &Run) -> bool {
-    let wide = run.summary.miss_m.is_some_and(|m| m >= CAPTURE_RADIUS_M);
-    let fast_and_close = run
-        .contact
-        .is_some_and(|c| c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M);
-    wide || fast_and_close
+    run.crossings.iter().any(|e| {
+        let c = &e.contact;
+        let struck = e.pushing && !c.docked;
+        let fast_and_close = c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M;
+        struck || fast_and_close
+    })
 }
 
 /// The record of a finished run.
 fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
     let s = &run.summary;
     let reached = s.miss_m.zip(s.closure_mps);
-    let after = match (reached, run.contact) {
-        (None, Some(c)) => Some(Crossing {
-            miss_m: c.miss_m,
-            closure_mps: c.closure_mps,
-        }),
-        _ => None,
-    };
+    let after = run.crossings.iter().find(|e| !e.pushing).map(|e| Crossing {
+        miss_m: e.contact.miss_m,
+        closure_mps: e.contact.closure_mps,
+    });
     let failure = match s.outcome {
         Outcome::Docked => None,
         Outcome::Aborted => Some(format!(
@@ -328,6 +457,19 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
         crossed_after_breakaway: after,
         time_s: s.time_s,
         breakaway_reason: s.breakaway_reason.clone(),
+        attempts: s.attempts,
+        attempt_ends: run
+            .attempts
+            .iter()
+            .map(|a| {
+                if a.struck {
+                    format!("{} (struck)", a.end)
+                } else {
+                    a.end.clone()
+                }
+            })
+            .collect(),
+        first_attempt_docked: run.attempts.first().is_some_and(|a| a.end == "docked"),
     }
 }
 
@@ -353,6 +495,9 @@ pub fn run_one(base: &ScenarioFile, index: u64) -> RunRecord {
             crossed_after_breakaway: None,
             time_s: 0.0,
             breakaway_reason: None,
+            attempts: 0,
+            attempt_ends: Vec::new(),
+            first_attempt_docked: false,
         },
     }
 }
@@ -540,12 +685,20 @@ pub struct CampaignSummary {
     pub shard: Option<String>,
     /// Runs summarised here.
     pub runs: u64,
-    /// Of which docked.
+    /// Of which docked (within the sortie, at any attempt).
     pub docked: u64,
     /// Docked fraction.
     pub success_rate: f64,
     /// Its 95 % confidence interval (Wilson score).
     pub success_ci95: Interval,
+    /// Runs that docked at their first attempt.
+    pub first_attempt_docked: u64,
+    /// Their fraction's 95 % Wilson interval.
+    pub first_attempt_ci95: Interval,
+    /// Runs per number of attempts flown.
+    pub attempts_histogram: BTreeMap<u8, u64>,
+    /// Attempts per way an attempt ended, over all runs.
+    pub attempt_ends: BTreeMap<String, u64>,
     /// Runs ending in an unsafe state (module doc).
     pub unsafe_end_states: u64,
     /// Their fraction's 95 % Wilson interval.
@@ -621,15 +774,19 @@ fn definitions() -> BTreeMap<String, String> {
     [
         (
             "success",
-            "the run docked: at the first crossing of the drogue plane the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+            "the run docked within its sortie: at a crossing of the drogue plane while the controller was pushing (not in a missed approach or a breakaway) the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+        ),
+        (
+            "first_attempt_docked",
+            "the run docked at its first attempt (the paper's procedure has only one)",
         ),
         (
             "unsafe_end_states",
-            "the probe tip crossed the drogue plane before any breakaway at or outside the capture radius, or crossed it (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
+            "the probe tip struck: it crossed the drogue plane while the controller was pushing (before any missed approach or breakaway of that attempt) outside the capture radius or the closing band; or it crossed the plane (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
         ),
         (
             "crossed_after_breakaway",
-            "the probe tip crossed the drogue plane after the controller had broken away (counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
+            "the probe tip crossed the drogue plane after the controller had stopped pushing (a missed approach or a breakaway; counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
         ),
         (
             "ci95",
@@ -654,13 +811,20 @@ pub fn summarise(
     let n = records.len() as u64;
     let count = |f: &dyn Fn(&RunRecord) -> bool| records.iter().filter(|r| f(r)).count() as u64;
     let docked = count(&|r| r.docked);
+    let first = count(&|r| r.first_attempt_docked);
     let unsafe_n = count(&|r| r.unsafe_end);
     let mut outcomes = BTreeMap::new();
     let mut causes = BTreeMap::new();
+    let mut attempts = BTreeMap::new();
+    let mut ends = BTreeMap::new();
     for r in records {
         *outcomes.entry(r.outcome.name().to_string()).or_insert(0) += 1;
         if let Some(c) = &r.failure {
             *causes.entry(c.clone()).or_insert(0) += 1;
+        }
+        *attempts.entry(r.attempts).or_insert(0) += 1;
+        for e in &r.attempt_ends {
+            *ends.entry(e.clone()).or_insert(0) += 1;
         }
     }
     CampaignSummary {
@@ -671,6 +835,10 @@ pub fn summarise(
         docked,
         success_rate: if n > 0 { docked as f64 / n as f64 } else { 0.0 },
         success_ci95: wilson(docked, n),
+        first_attempt_docked: first,
+        first_attempt_ci95: wilson(first, n),
+        attempts_histogram: attempts,
+        attempt_ends: ends,
         unsafe_end_states: unsafe_n,
         unsafe_ci95: wilson(unsafe_n, n),
         crossed_after_breakaway: count(&|r| r.crossed_after_breakaway.is_some()),
@@ -682,10 +850,6 @@ pub fn summarise(
         dispersion: dispersion.clone(),
         definitions: definitions(),
     }
-}
-
-fn dbg<E: fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
 }
 
 /// A class of runs in a scatter plot: label, colour, points.
@@ -1041,6 +1205,17 @@ mod tests {
     }
 
     #[test]
+    fn a_run_record_carries_the_navigation_latency_it_flew() {
+        let f = ScenarioFile::load("level2").expect("preset");
+        let seen: std::collections::BTreeSet<Option<u32>> = (0..20)
+            .map(|i| RunInputs::of(&f.dispersed(i)).nav_latency_steps)
+            .collect();
+        assert_eq!(seen, [Some(1), Some(2)].into_iter().collect());
+        let paper = ScenarioFile::load("paper-level2").expect("preset");
+        assert_eq!(RunInputs::of(&paper.dispersed(0)).nav_latency_steps, None);
+    }
+
+    #[test]
     fn shards_partition_the_campaign() {
         assert_eq!("2/3".parse::<Shard>().unwrap(), Shard { k: 2, m: 3 });
         for bad in ["0/3", "4/3", "1", "a/b", "1/0"] {
@@ -1053,5 +1228,78 @@ mod tests {
         all.sort_unstable();
         assert_eq!(all, indices(10, None));
         assert_eq!(indices(2, Some(Shard { k: 3, m: 3 })), Vec::<u64>::new());
+    }
+
+    /// A batch system's environment as `shard_from_env` reads it.
+    fn env(vars: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> + use<> {
+        let vars: Vec<(String, String)> = vars
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        move |name| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone())
+    }
+
+    #[test]
+    fn a_batch_job_takes_its_shard_from_the_environment() {
+        let slurm = |id: &'static str| {
+            env(&[
+                ("SLURM_ARRAY_TASK_ID", id),
+                ("SLURM_ARRAY_TASK_MIN", "3"),
+                ("SLURM_ARRAY_TASK_MAX", "6"),
+                ("SLURM_ARRAY_TASK_COUNT", "4"),
+                ("SLURM_ARRAY_TASK_STEP", "1"),
+            ])
+        };
+        let shard = |k, m| Shard { k, m };
+        assert_eq!(
+            shard_from_env(slurm("3"), None),
+            Ok(Some((shard(1, 4), ShardSource::SlurmArray)))
+        );
+        assert_eq!(
+            shard_from_env(slurm("6"), Some(4)),
+            Ok(Some((shard(4, 4), ShardSource::SlurmArray)))
+        );
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "0")]);
+        assert_eq!(
+            shard_from_env(&k8s, Some(5)),
+            Ok(Some((shard(1, 5), ShardSource::IndexedJob)))
+        );
+        assert_eq!(shard_from_env(env(&[]), None), Ok(None));
+        // Refusals name what is wrong.
+        let refused = |lookup: &dyn Fn(&str) -> Option<String>, shards, what: &str| {
+            let e = shard_from_env(lookup, shards).unwrap_err();
+            assert!(e.contains(what), "{e}");
+        };
+        refused(&slurm("7"), None, "outside the array");
+        refused(&slurm("4"), Some(3), "differs from SLURM_ARRAY_TASK_COUNT");
+        refused(&k8s, None, "--shards M");
+        refused(&env(&[("JOB_COMPLETION_INDEX", "5")]), Some(5), "not below");
+        refused(&env(&[("JOB_COMPLETION_INDEX", "x")]), Some(5), "integer");
+        refused(&env(&[]), Some(5), "without JOB_COMPLETION_INDEX");
+        refused(
+            &env(&[("SLURM_ARRAY_TASK_ID", "1"), ("JOB_COMPLETION_INDEX", "1")]),
+            Some(2),
+            "both",
+        );
+        refused(
+            &env(&[("SLURM_ARRAY_TASK_ID", "1")]),
+            None,
+            "SLURM_ARRAY_TASK_MIN is not",
+        );
+        let stepped = env(&[
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "6"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+            ("SLURM_ARRAY_TASK_STEP", "2"),
+        ]);
+        refused(&stepped, None, "steps by 2");
+        let list = env(&[
+            ("SLURM_ARRAY_TASK_ID", "1"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_MAX", "9"),
+            ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ]);
+        refused(&list, None, "not a contiguous range");
     }
 }

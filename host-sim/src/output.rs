@@ -97,6 +97,15 @@ struct Row {
     v_des_down_mps: f32,
     v_des_fwd_mps: f32,
     status_bits: u16,
+    attempt: u8,
+    no_go: String,
+    est_offset_right_m: f32,
+    est_offset_down_m: f32,
+    est_drogue_vel_right_mps: f32,
+    est_drogue_vel_down_mps: f32,
+    est_drogue_vel_fwd_mps: f32,
+    est_depth_m: f32,
+    predicted_miss_m: f32,
 }
 
 impl From<&Sample> for Row {
@@ -144,6 +153,15 @@ impl From<&Sample> for Row {
             v_des_down_mps: o.v_des.y_down_mps,
             v_des_fwd_mps: o.v_des.z_fwd_mps,
             status_bits: o.status.0,
+            attempt: o.attempt,
+            no_go: o.no_go.map_or_else(String::new, |r| format!("{r:?}")),
+            est_offset_right_m: o.estimate.offset_m[0],
+            est_offset_down_m: o.estimate.offset_m[1],
+            est_drogue_vel_right_mps: o.estimate.drogue_velocity_mps[0],
+            est_drogue_vel_down_mps: o.estimate.drogue_velocity_mps[1],
+            est_drogue_vel_fwd_mps: o.estimate.drogue_velocity_mps[2],
+            est_depth_m: o.estimate.depth_m,
+            predicted_miss_m: o.predicted_miss_m,
         }
     }
 }
@@ -164,8 +182,13 @@ pub fn write_csv(path: &Path, run: &Run) -> Result<(), OutputError> {
 pub fn one_line(s: &Summary) -> String {
     let num =
         |v: Option<f64>, unit: &str| v.map_or("n/a".to_string(), |v| format!("{v:.3} {unit}"));
+    let attempts = if s.attempts > 1 {
+        format!(", attempt {}", s.attempts)
+    } else {
+        String::new()
+    };
     format!(
-        "{:?}: miss {}, closure {}, at {:.2} s{}",
+        "{:?}: miss {}, closure {}, at {:.2} s{attempts}{}",
         s.outcome,
         num(s.miss_m, "m"),
         num(s.closure_mps, "m/s"),

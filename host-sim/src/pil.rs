@@ -44,7 +44,6 @@ use std::io::{self, Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -59,7 +58,7 @@ use serde::Serialize;
 
 use crate::sim::FlightComputer;
 
-/// Environment variable naming a prebuilt firmware ELF ([`firmware_elf`] then builds nothing).
+/// Environment variable naming the firmware ELF to fly ([`firmware_elf`]).
 pub const FIRMWARE_ELF_ENV: &str = "IBVS_FIRMWARE_ELF";
 
 /// Environment variable: when set to `1`, keep each run's temporary directory (socket, log).
@@ -71,11 +70,10 @@ pub const FIRMWARE_TARGET: &str = "thumbv7em-none-eabihf";
 /// Why processor-in-the-loop failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PilError {
-    /// `cargo build` of the firmware failed (its stderr, last lines).
-    #[error("building the firmware failed: {0}")]
-    Build(String),
     /// No firmware ELF at the path.
-    #[error("firmware ELF not found: {0}")]
+    #[error(
+        "firmware ELF not found: {0} (build it with `{FIRMWARE_BUILD_COMMAND}`, or name one in {FIRMWARE_ELF_ENV})"
+    )]
     ElfMissing(PathBuf),
     /// QEMU could not be started.
     #[error("starting {program}: {source}")]
@@ -333,67 +331,22 @@ pub fn default_firmware_elf() -> PathBuf {
         .join("firmware")
 }
 
-/// The firmware ELF for PIL: the file named by `IBVS_FIRMWARE_ELF` if set; otherwise built
-/// now (incrementally, once per process) with `cargo build -p firmware --target
-/// thumbv7em-none-eabihf --release --target-dir <target>/pil-firmware`. The separate target
-/// directory means this works from inside `cargo test` (which holds the lock of the main
-/// one) and never uses an ELF older than the sources.
+/// The command that builds the `qemu` board's ELF at [`default_firmware_elf`].
+pub const FIRMWARE_BUILD_COMMAND: &str =
+    "cargo build -p firmware --target thumbv7em-none-eabihf --release";
+
+/// The firmware ELF for PIL: the file named by `IBVS_FIRMWARE_ELF` if set, otherwise
+/// [`default_firmware_elf`]. Nothing is built here: the ELF flown is the one the user (or the
+/// test command, `scripts/test-all.sh`) built, and a missing one is an error that names
+/// [`FIRMWARE_BUILD_COMMAND`]. An ELF older than the core's sources is caught at the link's
+/// first frame when the protocol changed (`VersionMismatch`), not otherwise: rebuild after
+/// changing the core.
 pub fn firmware_elf() -> Result<PathBuf, PilError> {
-    if let Some(p) = std::env::var_os(FIRMWARE_ELF_ENV) {
-        let p = PathBuf::from(p);
-        return if p.is_file() {
-            Ok(p)
-        } else {
-            Err(PilError::ElfMissing(p))
-        };
-    }
-    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    BUILT
-        .get_or_init(|| build_firmware(&target_dir().join("pil-firmware")))
-        .clone()
-        .map_err(PilError::Build)
-}
-
-/// Builds the `qemu` firmware into `target_dir`; returns the ELF.
-pub fn build_firmware(target_dir: &Path) -> Result<PathBuf, String> {
-    build_firmware_with(target_dir, &[])
-}
-
-/// Builds the firmware (release) into `target_dir` with the extra cargo arguments `args`
-/// (`["--no-default-features", "--features", "f405"]`: the `f405` board); returns the ELF.
-pub fn build_firmware_with(target_dir: &Path, args: &[&str]) -> Result<PathBuf, String> {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let out = Command::new(cargo)
-        .current_dir(workspace_root())
-        .args([
-            "build",
-            "-p",
-            "firmware",
-            "--release",
-            "--target",
-            FIRMWARE_TARGET,
-        ])
-        .args(args)
-        .arg("--target-dir")
-        .arg(target_dir)
-        // Host-side flags would replace the target's `-Tlink.x` from .cargo/config.toml.
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_TARGET")
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("running cargo: {e}"))?;
-    if !out.status.success() {
-        return Err(tail(&String::from_utf8_lossy(&out.stderr), 30));
-    }
-    let elf = target_dir
-        .join(FIRMWARE_TARGET)
-        .join("release")
-        .join("firmware");
-    if elf.is_file() {
-        Ok(elf)
+    let p = std::env::var_os(FIRMWARE_ELF_ENV).map_or_else(default_firmware_elf, PathBuf::from);
+    if p.is_file() {
+        Ok(p)
     } else {
-        Err(format!("cargo succeeded but {} is missing", elf.display()))
+        Err(PilError::ElfMissing(p))
     }
 }
 

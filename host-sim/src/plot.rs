@@ -54,7 +54,9 @@ fn err(path: &Path) -> impl Fn(String) -> OutputError + '_ {
     }
 }
 
-fn dbg<E: std::fmt::Debug>(e: E) -> String {
+/// A plotting backend's error as text (the backends' error types are not `std::error::Error`
+/// in every version; their `Debug` form names the cause).
+pub(crate) fn dbg<E: std::fmt::Debug>(e: E) -> String {
     format!("{e:?}")
 }
 

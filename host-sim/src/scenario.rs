@@ -16,14 +16,21 @@
 //! Invariants: a built scenario only contains values that passed [`ScenarioFile::validate`];
 //! a dispersed file validates whenever its base file does.
 
-use ibvs_core::{ControllerConfig, OuterLaw};
+use ibvs_core::estimator::EstimatorConfig;
+use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
+use ibvs_core::{ControllerConfig, OuterLaw, Procedure, RefuellingConfig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::sim::{PAPER_START_M, Scenario};
-use crate::synthesis::NOMINAL_XCG;
+use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
+use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
+use crate::world::camera::CameraParams;
+use crate::world::hose::HoseParams;
+use crate::world::led_camera::LedCameraParams;
+use crate::world::nav::InsErrors;
 use crate::world::turbulence::TurbulencePreset;
+use crate::world::wake::WakeParams;
 
 /// Which outer loop flies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
@@ -56,6 +63,49 @@ pub enum CameraModel {
     Led,
     /// Ideal pinhole: exact image point and depth, no latency.
     Ideal,
+}
+
+/// Where the camera sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraPlacement {
+    /// Set back from the probe tip on the nose
+    /// ([`ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M`]): sees the drogue until contact.
+    #[default]
+    SetBack,
+    /// At the probe tip (the paper's Assumption 3): blind inside about 0.7 m.
+    ProbeTip,
+}
+
+impl CameraPlacement {
+    /// The camera's true position, body axes, m.
+    pub fn position_body_m(self) -> nalgebra::Vector3<f64> {
+        match self {
+            Self::SetBack => SET_BACK_CAMERA_BODY_M.map(f64::from).into(),
+            Self::ProbeTip => PROBE_TIP_BODY_M.into(),
+        }
+    }
+}
+
+/// Which navigation model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NavModel {
+    /// A GNSS-aided INS with the errors of `[navigation.ins]`.
+    #[default]
+    Ins,
+    /// Perfect navigation (truth).
+    Ideal,
+}
+
+/// `[navigation]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NavigationSection {
+    /// Model.
+    pub model: NavModel,
+    /// The INS's error figures (`docs/models.md`, "Navigation").
+    pub ins: InsErrors,
 }
 
 /// `[gains]`: outer-loop gains.
@@ -109,6 +159,8 @@ pub struct DrogueSection {
 pub struct CameraSection {
     /// Model.
     pub model: CameraModel,
+    /// Where it sits (the controller believes it there, less `mount_error_m`).
+    pub placement: CameraPlacement,
     /// True minus assumed camera position, receiver body axes, m: the controller believes the
     /// camera is at the probe tip minus this.
     pub mount_error_m: [f64; 3],
@@ -165,6 +217,9 @@ pub struct DispersionSection {
     /// Receiver centre of gravity, fraction of the mean chord.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub xcg: Option<[f64; 2]>,
+    /// Navigation latency, control periods (integers, both ends included).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nav_latency_steps: Option<[u32; 2]>,
 }
 
 impl DispersionSection {
@@ -184,7 +239,9 @@ pub struct ScenarioFile {
     pub seed: u64,
     /// Time budget, s.
     pub duration_s: f64,
-    /// Outer loop.
+    /// The procedure the controller flies: `refuelling` (the default) or the paper's.
+    pub procedure: Procedure,
+    /// Outer loop of the paper's procedure.
     pub controller: Law,
     /// Outer-loop gains.
     pub gains: GainsSection,
@@ -202,6 +259,12 @@ pub struct ScenarioFile {
     pub camera: CameraSection,
     /// Receiver.
     pub receiver: ReceiverSection,
+    /// Navigation.
+    pub navigation: NavigationSection,
+    /// The refuelling procedure's parameters (the controller's own configuration).
+    pub refuelling: RefuellingConfig,
+    /// The drogue estimator's parameters (the controller's own configuration).
+    pub estimator: EstimatorConfig,
     /// Monte Carlo ranges (campaigns only).
     #[serde(skip_serializing_if = "DispersionSection::is_empty")]
     pub dispersion: DispersionSection,
@@ -220,7 +283,8 @@ impl Default for ScenarioFile {
         Self {
             name: "default".into(),
             seed: 1,
-            duration_s: 70.0,
+            duration_s: 120.0,
+            procedure: Procedure::Refuelling,
             controller: Law::Ibvs,
             gains: GainsSection {
                 k: TABLE_1,
@@ -240,6 +304,7 @@ impl Default for ScenarioFile {
             },
             camera: CameraSection {
                 model: CameraModel::Led,
+                placement: CameraPlacement::SetBack,
                 mount_error_m: [0.0; 3],
                 mount_pitch_error_deg: 0.0,
                 pixel_noise_px: 0.5,
@@ -248,6 +313,12 @@ impl Default for ScenarioFile {
                 drop_probability: 0.0,
             },
             receiver: ReceiverSection { xcg: NOMINAL_XCG },
+            navigation: NavigationSection {
+                model: NavModel::Ins,
+                ins: InsErrors::default(),
+            },
+            refuelling: cfg.refuelling,
+            estimator: cfg.estimator,
             dispersion: DispersionSection::default(),
         }
     }
@@ -283,6 +354,11 @@ impl Default for ReceiverSection {
         ScenarioFile::default().receiver
     }
 }
+impl Default for NavigationSection {
+    fn default() -> Self {
+        ScenarioFile::default().navigation
+    }
+}
 
 /// Why a scenario was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -315,6 +391,12 @@ pub enum ScenarioError {
         /// Maximum given.
         max: String,
     },
+    /// The controller's configuration the file makes is invalid (the core names the field).
+    #[error("{0}")]
+    Controller(#[from] ibvs_core::ConfigError),
+    /// The navigation's error figures (the key named).
+    #[error("{0} must be finite and not negative (latency at most 50 steps)")]
+    Navigation(&'static str),
     /// Neither a preset name nor a readable file.
     #[error("no preset or file named {0:?} (presets: {presets})", presets = PRESETS.iter().map(|p| p.0).collect::<Vec<_>>().join(", "))]
     NotFound(String),
@@ -392,46 +474,129 @@ macro_rules! paper_dispersion {
     };
 }
 
+/// What makes a preset fly the paper's experiment as the paper does, its top-level keys (TOML
+/// puts them before any table): its procedure and law, its 70 s budget. Each paper preset also
+/// puts the camera at the probe tip (`[camera] placement`) and navigation perfect.
+macro_rules! paper_keys {
+    () => {
+        "procedure = \"paper\"\nduration_s = 70.0\n"
+    };
+}
+
+/// The dispersion of the refuelling presets: the paper presets' ([`paper_dispersion`]) and
+/// one or two control periods of navigation latency.
+macro_rules! refuelling_dispersion {
+    ($sigma:literal) => {
+        concat!(paper_dispersion!($sigma), "nav_latency_steps = [1, 2]\n")
+    };
+}
+
+/// The RMS gust intensity range of `mil-level2`: MIL-F-8785C's at probability of
+/// exceedance 1e-2 at 3000 m ([`crate::world::turbulence::mil_f_8785c_sigma_mps`], 1.84 m/s)
+/// +/-20 %, m/s (tested against the table).
+pub const MIL_LEVEL2_SIGMA_RANGE_MPS: [f64; 2] = [1.47, 2.21];
+
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
-pub const PRESETS: [(&str, &str, &str); 6] = [
+pub const PRESETS: [(&str, &str, &str); 11] = [
     (
         "calm",
-        "paper start, calm air, tanker wake, hose and LED camera (the default)",
+        "paper start, calm air, tanker wake, hose and LED camera, refuelling procedure (the default)",
         "",
     ),
     (
         "paper-level1",
-        "paper start, level I turbulence (0.5 m/s), Table 1 gains",
+        "the paper's procedure and law: paper start, level I turbulence (0.5 m/s), Table 1 gains",
         concat!(
+            paper_keys!(),
+            "[camera]\nplacement = \"probe-tip\"\n[navigation]\nmodel = \"ideal\"\n",
             "[turbulence]\npreset = \"level1\"\n",
             paper_dispersion!("[0.4, 0.6]")
         ),
     ),
     (
         "paper-level2",
-        "paper start, level II turbulence (0.7 m/s), Table 1 gains",
+        "the paper's procedure and law: paper start, level II turbulence (0.7 m/s), Table 1 gains",
         concat!(
+            paper_keys!(),
+            "[camera]\nplacement = \"probe-tip\"\n[navigation]\nmodel = \"ideal\"\n",
             "[turbulence]\npreset = \"level2\"\n",
             paper_dispersion!("[0.56, 0.84]")
         ),
     ),
     (
         "paper-bow-wave",
-        "paper start, level I turbulence and the bow wave, Table 2 gains",
+        "the paper's procedure and law: paper start, level I turbulence and the bow wave, Table 2 gains",
         concat!(
+            paper_keys!(),
+            "[camera]\nplacement = \"probe-tip\"\n[navigation]\nmodel = \"ideal\"\n",
             "[gains]\nk = [3.0, 3.0, 0.5, 5.0, 2.0]\n[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
             paper_dispersion!("[0.4, 0.6]")
         ),
     ),
     (
         "paper-mount-error-ibvs",
-        "paper start, IBVS, camera mount error [1, 0, -0.5] m",
-        "controller = \"ibvs\"\n[camera]\nmount_error_m = [1.0, 0.0, -0.5]\n",
+        "the paper's procedure: paper start, IBVS, camera mount error [1, 0, -0.5] m",
+        concat!(
+            paper_keys!(),
+            "controller = \"ibvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
+            "[navigation]\nmodel = \"ideal\"\n",
+        ),
     ),
     (
         "paper-mount-error-pbvs",
-        "paper start, PBVS, camera mount error [1, 0, -0.5] m",
-        "controller = \"pbvs\"\n[camera]\nmount_error_m = [1.0, 0.0, -0.5]\n",
+        "the paper's procedure: paper start, PBVS, camera mount error [1, 0, -0.5] m",
+        concat!(
+            paper_keys!(),
+            "controller = \"pbvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
+            "[navigation]\nmodel = \"ideal\"\n",
+        ),
+    ),
+    (
+        "level1",
+        "the refuelling procedure, set-back camera, INS errors: paper start, level I turbulence (0.5 m/s)",
+        concat!(
+            "[turbulence]\npreset = \"level1\"\n",
+            refuelling_dispersion!("[0.4, 0.6]")
+        ),
+    ),
+    (
+        "level2",
+        "the refuelling procedure, set-back camera, INS errors: paper start, level II turbulence (0.7 m/s)",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n",
+            refuelling_dispersion!("[0.56, 0.84]")
+        ),
+    ),
+    (
+        "bow-wave",
+        "the refuelling procedure, set-back camera, INS errors: paper start, level I turbulence and the bow wave",
+        concat!(
+            "[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
+            refuelling_dispersion!("[0.4, 0.6]")
+        ),
+    ),
+    (
+        "mil-level2",
+        "the refuelling procedure: MIL-F-8785C intensity at exceedance 1e-2 at 3000 m (1.84 m/s) +/-20 %",
+        concat!(
+            "[turbulence]\nsigma_mps = 1.84\n",
+            refuelling_dispersion!("[1.47, 2.21]")
+        ),
+    ),
+    (
+        "wide-start",
+        "the refuelling procedure: level II turbulence, start 4.5..12 m ahead, -2..2 m right, -2..1.5 m down",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n[dispersion]\n",
+            "drogue_minus_probe_m = [[4.5, 12.0], [-2.0, 2.0], [-2.0, 1.5]]\n",
+            "turbulence_sigma_mps = [0.56, 0.84]\n",
+            "pixel_noise_px = [0.25, 1.0]\n",
+            "latency_frames = [1, 2]\n",
+            "mount_error_m = [[-0.05, 0.05], [-0.05, 0.05], [-0.05, 0.05]]\n",
+            "mount_pitch_error_deg = [-0.5, 0.5]\n",
+            "xcg = [0.30, 0.40]\n",
+            "nav_latency_steps = [1, 2]\n",
+        ),
     ),
 ];
 
@@ -566,6 +731,11 @@ impl ScenarioFile {
             XCG_RANGE.1,
             "0.25..=0.45",
         )?;
+        self.navigation
+            .ins
+            .validate()
+            .map_err(ScenarioError::Navigation)?;
+        self.controller_config().validate()?;
         self.validate_dispersion()
     }
 
@@ -631,6 +801,15 @@ impl ScenarioFile {
         if let Some(r) = d.xcg {
             range_pair("dispersion.xcg", r, XCG_RANGE.0, XCG_RANGE.1, "0.25..=0.45")?;
         }
+        if let Some(r) = d.nav_latency_steps {
+            range_pair(
+                "dispersion.nav_latency_steps",
+                r.map(f64::from),
+                0.0,
+                50.0,
+                "0..=50",
+            )?;
+        }
         Ok(())
     }
 
@@ -680,6 +859,9 @@ impl ScenarioFile {
         if let Some(r) = d.xcg {
             f.receiver.xcg = uniform(SALT_XCG, r);
         }
+        if let Some([lo, hi]) = d.nav_latency_steps {
+            f.navigation.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
+        }
         f
     }
 
@@ -690,16 +872,31 @@ impl ScenarioFile {
             .unwrap_or_else(|| self.turbulence.preset.sigma_mps())
     }
 
-    /// The controller's configuration for this scenario.
+    /// The controller's configuration for this scenario: the procedure's default (the
+    /// paper's at the probe tip, or the refuelling one), the file's gains, procedure and
+    /// estimator parameters, and the camera where the controller believes it is: where it
+    /// was meant to be, i.e. its placement, less the mount error.
     pub fn controller_config(&self) -> ControllerConfig {
         let law = match self.controller {
             Law::Ibvs => OuterLaw::Ibvs,
             Law::Pbvs => OuterLaw::Pbvs,
         };
+        let base = match self.procedure {
+            Procedure::Paper => ControllerConfig::paper(),
+            Procedure::Refuelling => ControllerConfig::default(),
+        };
         let mut cfg = ControllerConfig {
             law,
-            ..ControllerConfig::default()
+            refuelling: self.refuelling,
+            estimator: self.estimator,
+            ..base
         };
+        cfg.camera.position_body_m = self
+            .camera
+            .placement
+            .position_body_m()
+            .map(|v| v as f32)
+            .into();
         let g = &mut cfg.ibvs;
         let k = self.gains.k.map(|v| v as f32);
         (g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps) = (k[0], k[1], k[2], k[3], k[4]);
@@ -716,9 +913,43 @@ impl ScenarioFile {
         cfg
     }
 
-    /// The simulator's scenario.
+    /// The simulator's scenario: the one conversion from a scenario file to what a run
+    /// flies (every key not named here keeps [`Scenario::ideal`]'s value).
     pub fn scenario(&self) -> Scenario {
-        Scenario::from_file(self)
+        let f = self;
+        let c = &f.camera;
+        Scenario {
+            name: f.name.clone(),
+            seed: f.seed,
+            start_offset_m: nalgebra::Vector3::from(f.initial.drogue_minus_probe_m),
+            duration_s: f.duration_s,
+            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
+            camera: match c.model {
+                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
+                CameraModel::Led => CameraChoice::Led(LedCameraParams {
+                    pixel_noise_px: c.pixel_noise_px,
+                    latency_frames: c.latency_frames,
+                    rate_hz: c.rate_hz,
+                    drop_probability: c.drop_probability,
+                    ..LedCameraParams::default()
+                }),
+            },
+            turbulence_sigma_mps: f.sigma_mps(),
+            camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
+            wake: f.tanker_wake.enabled.then(WakeParams::default),
+            bow_wave: f.bow_wave.enabled,
+            xcg: f.receiver.xcg,
+            camera_body_m: c.placement.position_body_m(),
+            navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
+            ..Scenario::ideal()
+        }
+    }
+}
+
+impl Default for Scenario {
+    /// The default scenario file's: paper start, calm air, wake, hose, LED camera.
+    fn default() -> Self {
+        ScenarioFile::default().scenario()
     }
 }
 
@@ -732,6 +963,7 @@ const SALT_LATENCY: u64 = 0x40;
 const SALT_MOUNT: u64 = 0x50; // + axis
 const SALT_PITCH: u64 = 0x60;
 const SALT_XCG: u64 = 0x70;
+const SALT_NAV_LATENCY: u64 = 0x80;
 
 /// SplitMix64's output function: a bijective mix of 64 bits.
 fn splitmix64(x: u64) -> u64 {
@@ -762,6 +994,20 @@ mod tests {
                 .controller,
             Law::Pbvs
         );
+    }
+
+    #[test]
+    fn mil_level2_is_the_mil_table_at_3000_m_plus_minus_20_percent() {
+        let s = crate::world::turbulence::mil_f_8785c_sigma_mps(3000.0, 1e-2).unwrap();
+        let f = ScenarioFile::load("mil-level2").unwrap();
+        assert!(
+            (f.sigma_mps() - s).abs() < 0.005,
+            "{} vs {s}",
+            f.sigma_mps()
+        );
+        for (got, k) in MIL_LEVEL2_SIGMA_RANGE_MPS.iter().zip([0.8, 1.2]) {
+            assert!((got - k * s).abs() < 0.005, "{got} vs {}", k * s);
+        }
     }
 
     #[test]
@@ -850,6 +1096,46 @@ mod tests {
         }
         for name in ["calm", "paper-mount-error-ibvs", "paper-mount-error-pbvs"] {
             assert!(ScenarioFile::load(name).unwrap().dispersion.is_empty());
+        }
+        // The refuelling presets: the same, and the navigation's latency.
+        for (name, sigma) in [
+            ("level1", [0.4, 0.6]),
+            ("level2", [0.56, 0.84]),
+            ("bow-wave", [0.4, 0.6]),
+            ("mil-level2", MIL_LEVEL2_SIGMA_RANGE_MPS),
+        ] {
+            let f = ScenarioFile::load(name).unwrap();
+            assert_eq!(f.procedure, Procedure::Refuelling, "{name}");
+            assert_eq!(f.navigation.model, crate::scenario::NavModel::Ins, "{name}");
+            assert_eq!(f.camera.placement, CameraPlacement::SetBack, "{name}");
+            let d = f.dispersion;
+            assert_eq!(d.turbulence_sigma_mps, Some(sigma), "{name}");
+            assert_eq!(d.nav_latency_steps, Some([1, 2]), "{name}");
+            assert_eq!(
+                d.drogue_minus_probe_m,
+                Some([[5.5, 6.5], [1.5, 2.5], [-2.5, -1.5]])
+            );
+        }
+        let wide = ScenarioFile::load("wide-start").unwrap().dispersion;
+        assert_eq!(
+            wide.drogue_minus_probe_m,
+            Some([[4.5, 12.0], [-2.0, 2.0], [-2.0, 1.5]])
+        );
+        // The paper's presets fly the paper's procedure at the tip, with perfect navigation.
+        for name in PRESETS
+            .iter()
+            .map(|p| p.0)
+            .filter(|n| n.starts_with("paper-"))
+        {
+            let f = ScenarioFile::load(name).unwrap();
+            assert_eq!(f.procedure, Procedure::Paper, "{name}");
+            assert_eq!(f.camera.placement, CameraPlacement::ProbeTip, "{name}");
+            assert_eq!(
+                f.navigation.model,
+                crate::scenario::NavModel::Ideal,
+                "{name}"
+            );
+            assert_eq!(f.duration_s, 70.0, "{name}");
         }
     }
 
@@ -976,7 +1262,7 @@ mod tests {
     fn the_mount_error_goes_into_the_controllers_belief() {
         let f = ScenarioFile::load("paper-mount-error-ibvs").unwrap();
         let cfg = f.controller_config();
-        let nominal = ControllerConfig::default().camera.position_body_m;
+        let nominal = ControllerConfig::paper().camera.position_body_m;
         assert_eq!(
             cfg.camera.position_body_m,
             [nominal[0] - 1.0, nominal[1], nominal[2] + 0.5]

@@ -15,13 +15,12 @@
 
 use ibvs_core::controller::{ControllerInput, ControllerOutput};
 use ibvs_core::measurement::CameraMeasurement;
-use ibvs_core::{Controller, Mode, ModeRequest};
+use ibvs_core::{BreakawayReason, Controller, Mode, ModeRequest};
 use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::docking::{Contact, PlaneCrossing};
 use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError};
-use crate::scenario::{CameraModel, DrogueModel, ScenarioFile};
 use crate::synthesis::{
     CONTROL_PERIOD_S, NOMINAL_XCG, PROBE_TIP_BODY_M, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS,
 };
@@ -30,12 +29,13 @@ use crate::world::drogue::{CAPTURE_RADIUS_M, FixedDrogue};
 use crate::world::faults::{FaultInjector, SimFault};
 use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
 use crate::world::led_camera::{CameraError, LedCamera, LedCameraParams};
-use crate::world::nav::PerfectNav;
+use crate::world::nav::{InsErrors, InsNav, Navigation, PerfectNav};
 use crate::world::turbulence::{
     DrydenParams, GustField, HIGH_ALTITUDE_SCALE_LENGTH_M, TurbulenceError,
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
+use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
 /// Something that turns one step's input into one step's output: the core in-process, or
 /// the firmware behind a serial link.
@@ -92,6 +92,8 @@ pub struct Scenario {
     pub wake: Option<WakeParams>,
     /// Bow wave on the drogue.
     pub bow_wave: bool,
+    /// Navigation errors: `None` is perfect navigation.
+    pub navigation: Option<InsErrors>,
 }
 
 /// The camera model and its parameters.
@@ -105,7 +107,8 @@ pub enum CameraChoice {
 
 impl Scenario {
     /// The vertical slice's world: calm air, no wake, the drogue held at its nominal trail, an
-    /// ideal camera; paper start.
+    /// ideal camera, perfect navigation; paper start; the camera set back from the probe tip
+    /// (the refuelling procedure's, [`ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M`]).
     pub fn ideal() -> Self {
         Self {
             name: "ideal".into(),
@@ -121,63 +124,62 @@ impl Scenario {
             xcg: NOMINAL_XCG,
             hose: None,
             camera: CameraChoice::Ideal(CameraParams::default()),
-            camera_body_m: Vector3::from(PROBE_TIP_BODY_M),
+            camera_body_m: SET_BACK_CAMERA_BODY_M.map(f64::from).into(),
             camera_pitch_error_rad: 0.0,
             probe_tip_body_m: Vector3::from(PROBE_TIP_BODY_M),
             turbulence_sigma_mps: 0.0,
             wake: None,
             bow_wave: false,
-        }
-    }
-
-    /// The simulator's scenario for a scenario file.
-    pub fn from_file(f: &ScenarioFile) -> Self {
-        let c = &f.camera;
-        Self {
-            name: f.name.clone(),
-            seed: f.seed,
-            start_offset_m: Vector3::from(f.initial.drogue_minus_probe_m),
-            duration_s: f.duration_s,
-            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
-            camera: match c.model {
-                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
-                CameraModel::Led => CameraChoice::Led(LedCameraParams {
-                    pixel_noise_px: c.pixel_noise_px,
-                    latency_frames: c.latency_frames,
-                    rate_hz: c.rate_hz,
-                    drop_probability: c.drop_probability,
-                    ..LedCameraParams::default()
-                }),
-            },
-            turbulence_sigma_mps: f.sigma_mps(),
-            camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
-            wake: f.tanker_wake.enabled.then(WakeParams::default),
-            bow_wave: f.bow_wave.enabled,
-            xcg: f.receiver.xcg,
-            ..Self::ideal()
+            navigation: None,
         }
     }
 }
 
-impl Default for Scenario {
-    /// The default scenario file's: paper start, calm air, wake, hose, LED camera.
-    fn default() -> Self {
-        Self::from_file(&ScenarioFile::default())
-    }
-}
-
-/// How a run ended.
+/// How a run ended, in order of precedence: a docking; else a strike (the probe reached the
+/// drogue plane outside the capture radius or the closing band while the controller was still
+/// pushing, i.e. not in a missed approach or a breakaway); else a breakaway; else the time
+/// budget. With the paper's procedure the first decisive event is the outcome (its breakaway is
+/// latched); with the refuelling procedure a run may dock at a later attempt after missed
+/// approaches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Outcome {
     /// The probe reached the drogue plane inside the capture radius and the closing band.
     Docked,
-    /// The probe reached the drogue plane outside the radius or the band.
+    /// The probe reached the drogue plane outside the radius or the band, pushing.
     Missed,
     /// Neither contact nor breakaway within the time budget.
     Timeout,
-    /// The controller broke away before reaching the plane.
+    /// The controller broke away (a fault, or the end of the sortie) without docking.
     Aborted,
+}
+
+/// One crossing of the drogue plane by the probe tip.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PlaneEvent {
+    /// Where, when and how fast.
+    pub contact: Contact,
+    /// The attempt the controller was flying (1 for the paper's single shot).
+    pub attempt: u8,
+    /// The controller's mode in the control step of the crossing.
+    pub mode: Mode,
+    /// The controller was still pushing (not in a missed approach or a breakaway).
+    pub pushing: bool,
+}
+
+/// How one attempt of a run ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AttemptRecord {
+    /// The attempt, 1-based.
+    pub attempt: u8,
+    /// `docked`, `no-go: <reason>`, `breakaway: <reason>`, or `unfinished` (the run ended
+    /// during it).
+    pub end: String,
+    /// The probe struck (crossed the plane outside the capture criteria while pushing) in
+    /// this attempt.
+    pub struck: bool,
+    /// Time the attempt ended, s.
+    pub time_s: f64,
 }
 
 /// One control step's record.
@@ -204,6 +206,8 @@ pub struct Sample {
 /// Summary of a run (the `dock --json` output).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
+    /// Attempts flown (1 for the paper's procedure).
+    pub attempts: u8,
     /// How it ended.
     pub outcome: Outcome,
     /// Outcome is docked.
@@ -223,12 +227,100 @@ pub struct Summary {
 pub struct Run {
     /// Summary.
     pub summary: Summary,
-    /// The plane crossing, if any.
+    /// The first plane crossing, if any (docking, strike, or after a breakaway).
     pub contact: Option<Contact>,
+    /// Every crossing of the drogue plane, in time order.
+    pub crossings: Vec<PlaneEvent>,
+    /// How each attempt ended, in order.
+    pub attempts: Vec<AttemptRecord>,
     /// One record per control step.
     pub samples: Vec<Sample>,
     /// The trim the receiver started from.
     pub trim: Trim,
+}
+
+/// Follows the controller's attempts through its outputs: the paper's single shot is attempt
+/// 1; the refuelling procedure numbers its own.
+#[derive(Debug, Clone, Default)]
+struct AttemptLog {
+    records: Vec<AttemptRecord>,
+    /// The attempt in progress and whether it struck.
+    open: Option<(u8, bool)>,
+    last_mode: Mode,
+}
+
+impl AttemptLog {
+    /// The attempt in progress (the last one once the run is over), 0 before engage.
+    fn current(&self) -> u8 {
+        self.open
+            .map(|(a, _)| a)
+            .or_else(|| self.records.last().map(|r| r.attempt))
+            .unwrap_or(0)
+    }
+
+    /// Attempts flown.
+    fn count(&self) -> u8 {
+        self.records.len() as u8 + u8::from(self.open.is_some())
+    }
+
+    fn struck(&mut self) {
+        if let Some((_, s)) = self.open.as_mut() {
+            *s = true;
+        }
+    }
+
+    fn close(&mut self, end: String, time_s: f64) {
+        if let Some((attempt, struck)) = self.open.take() {
+            self.records.push(AttemptRecord {
+                attempt,
+                end,
+                struck,
+                time_s,
+            });
+        }
+    }
+
+    fn observe(&mut self, out: &ControllerOutput, time_s: f64) {
+        let engaged = !matches!(out.mode, Mode::Standby);
+        let attempt = out.attempt.max(1);
+        if engaged && self.open.is_none() && self.last_mode != out.mode {
+            let ended = matches!(out.mode, Mode::Breakaway | Mode::MissedApproach);
+            if !ended || self.records.is_empty() {
+                self.open = Some((attempt, false));
+            }
+        }
+        if let Some((a, _)) = self.open
+            && attempt != a
+            && out.mode == Mode::PreContact
+        {
+            // A retry: the previous attempt ended in its missed approach (closed there).
+            self.open = Some((attempt, false));
+        }
+        if self.last_mode != out.mode {
+            let no_go = || {
+                out.no_go
+                    .map_or_else(|| "no-go".to_string(), |r| format!("no-go: {r:?}"))
+            };
+            match out.mode {
+                Mode::Docked => self.close("docked".into(), time_s),
+                Mode::MissedApproach => self.close(no_go(), time_s),
+                Mode::Breakaway => {
+                    let end = match out.breakaway_reason {
+                        Some(BreakawayReason::AttemptsExhausted) => no_go(),
+                        Some(r) => format!("breakaway: {r:?}"),
+                        None => "breakaway".into(),
+                    };
+                    self.close(end, time_s);
+                }
+                _ => {}
+            }
+        }
+        self.last_mode = out.mode;
+    }
+
+    fn finish(&mut self, time_s: f64) {
+        self.close("unfinished".into(), time_s);
+    }
 }
 
 /// Why a run could not start.
@@ -283,10 +375,22 @@ pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimErr
             Drogue::Hose(Box::new(HoseDrogue::steady_trail(params, &steady_air)?))
         }
     };
+    // The probe tip's marker as the camera sees it (fixed in its view): in view when the
+    // camera is set back from the tip (more than 0.5 m behind it).
+    let pitch = trim.theta_rad + s.camera_pitch_error_rad;
+    let tip_camera = crate::world::body_from_camera(pitch)
+        .inverse_transform_vector(&(s.probe_tip_body_m - s.camera_body_m));
+    let tip_in_view = (tip_camera.z > 0.5).then_some(tip_camera);
     let camera = match s.camera {
-        CameraChoice::Ideal(p) => Camera::Ideal(PinholeCamera::new(p)),
+        CameraChoice::Ideal(p) => {
+            let mut c = PinholeCamera::new(p);
+            c.set_probe_tip(tip_in_view);
+            Camera::Ideal(c)
+        }
         CameraChoice::Led(p) => {
-            Camera::Led(Box::new(LedCamera::new(p, s.seed ^ CAMERA_SEED_SALT)?))
+            let mut c = LedCamera::new(p, s.seed ^ CAMERA_SEED_SALT)?;
+            c.set_probe_tip(tip_in_view);
+            Camera::Led(Box::new(c))
         }
     };
     Ok(World {
@@ -295,7 +399,7 @@ pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimErr
         camera,
         mount: Mount {
             position_body_m: s.camera_body_m,
-            pitch_down_rad: trim.theta_rad + s.camera_pitch_error_rad,
+            pitch_down_rad: pitch,
         },
         gusts,
         wake,
@@ -362,10 +466,14 @@ pub fn run_observed(
     );
     let mut world = build_world(s, &design_trim, dt)?;
     let mut x = initial_state(s, &trim, &world.drogue_centre_tanker_m());
-    let nav = PerfectNav::new(
-        &design_trim,
-        point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0),
-    );
+    let start_cg = point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0);
+    let mut nav = match s.navigation {
+        None => Navigation::Perfect(PerfectNav::new(&design_trim, start_cg)),
+        Some(e) => {
+            e.validate().map_err(SimError::Scenario)?;
+            Navigation::Ins(Box::new(InsNav::new(&design_trim, start_cg, e, ts, s.seed)))
+        }
+    };
     let steps = (s.duration_s / ts).ceil() as usize;
 
     let tip = |x: &ReceiverState, t: f64| point_in_tanker_m(&s.tanker, x, &s.probe_tip_body_m, t);
@@ -375,8 +483,11 @@ pub fn run_observed(
         world.drogue_centre_tanker_m() - tip(&x, 0.0),
         CAPTURE_RADIUS_M,
     );
-    let mut contact: Option<Contact> = None;
-    let mut event: Option<(Outcome, f64)> = None;
+    let mut crossings: Vec<PlaneEvent> = Vec::new();
+    let mut attempts = AttemptLog::default();
+    let mut latched = false;
+    let mut docked_at: Option<f64> = None;
+    let mut breakaway_at: Option<f64> = None;
     let mut samples = Vec::with_capacity(steps);
     let mut reason = None;
     let mut prev_tip = tip(&x, 0.0);
@@ -398,8 +509,8 @@ pub fn run_observed(
         let input = ControllerInput {
             measurement,
             nav: injector.nav(nav.sample(&s.tanker, &x, t)),
-            probe_contact: contact.is_some_and(|c| c.docked),
-            request: if engaged_before || event.is_some() {
+            probe_contact: latched,
+            request: if engaged_before || breakaway_at.is_some() || docked_at.is_some() {
                 ModeRequest::None
             } else {
                 ModeRequest::Engage
@@ -424,13 +535,12 @@ pub fn run_observed(
             observer(&world, recorded);
         }
         prev_tip = tip_now;
-        if output.mode == Mode::Breakaway && reason.is_none() {
+        attempts.observe(&output, t);
+        if output.mode == Mode::Breakaway && breakaway_at.is_none() {
             reason = output.breakaway_reason.map(|r| format!("{r:?}"));
-            event.get_or_insert((Outcome::Aborted, t));
+            breakaway_at = Some(t);
         }
-        if let Some((outcome, at)) = event
-            && (outcome == Outcome::Docked || t >= at + s.after_event_s)
-        {
+        if docked_at.is_some() || breakaway_at.is_some_and(|at| t >= at + s.after_event_s) {
             break;
         }
         let cmd = injector.actuate(
@@ -454,31 +564,46 @@ pub fn run_observed(
                 world.drogue_centre_tanker_m() - tip(&x, t_end),
                 CAPTURE_RADIUS_M,
             ) {
-                contact = Some(c);
-                event.get_or_insert((
-                    if c.docked {
-                        Outcome::Docked
-                    } else {
-                        Outcome::Missed
-                    },
-                    c.time_s,
-                ));
+                let pushing = !matches!(output.mode, Mode::MissedApproach | Mode::Breakaway);
+                crossings.push(PlaneEvent {
+                    contact: c,
+                    attempt: attempts.current(),
+                    mode: output.mode,
+                    pushing,
+                });
+                if pushing && c.docked && !latched {
+                    // The probe enters the coupling: it latches (the contact discrete).
+                    latched = true;
+                    docked_at = Some(c.time_s);
+                } else if pushing {
+                    attempts.struck();
+                }
             }
         }
     }
-    let (outcome, time_s) = event.unwrap_or((Outcome::Timeout, s.duration_s));
-    // A crossing after a breakaway (while backing off) is not the approach's result.
-    let reached = contact.filter(|c| c.time_s <= time_s);
+    attempts.finish(samples.last().map_or(0.0, |p| p.time_s));
+    let docking = crossings.iter().find(|e| e.pushing && e.contact.docked);
+    let strike = crossings.iter().find(|e| e.pushing && !e.contact.docked);
+    let (outcome, time_s, decisive) = match (docking, strike, breakaway_at) {
+        (Some(d), _, _) => (Outcome::Docked, d.contact.time_s, Some(d.contact)),
+        (None, Some(m), _) => (Outcome::Missed, m.contact.time_s, Some(m.contact)),
+        (None, None, Some(at)) => (Outcome::Aborted, at, None),
+        (None, None, None) => (Outcome::Timeout, s.duration_s, None),
+    };
+    let contact = crossings.first().map(|e| e.contact);
     Ok(Run {
         summary: Summary {
+            attempts: attempts.count(),
             outcome,
             docked: outcome == Outcome::Docked,
-            miss_m: reached.map(|c| c.miss_m),
-            closure_mps: reached.map(|c| c.closure_mps),
+            miss_m: decisive.map(|c| c.miss_m),
+            closure_mps: decisive.map(|c| c.closure_mps),
             time_s,
             breakaway_reason: reason,
         },
         contact,
+        crossings,
+        attempts: attempts.records,
         samples,
         trim,
     })

@@ -1,12 +1,14 @@
-//! The regression gate of the target benchmarks (issue 5): the control step's maximum
-//! instructions, the control path's stack and each board's flash must not grow past the
-//! checked-in expectations (`benchmarks/expected.json`, with its stated tolerance).
+//! The regression gate of the target benchmarks (docs/benchmarks.md, "The gate"): the
+//! control step's maximum instructions, the control path's stack and each board's flash must
+//! not grow past the checked-in expectations (`benchmarks/expected.json`, with its stated
+//! tolerance).
 //!
 //! It runs the benchmark runner (`target-bench --check`): every recorded docking workload
 //! replayed through the `qemu` firmware in QEMU (exact instruction counts), the ELFs' sizes.
 //! The firmware ELFs: `IBVS_FIRMWARE_ELF` (qemu board) and `IBVS_FIRMWARE_F405_ELF` (f405
-//! board) when set, as `scripts/test-all.sh` does; otherwise the runner builds them in their
-//! own target directories. Needs `qemu-system-arm`, like the PIL tests.
+//! board) when set, as `scripts/test-all.sh` does; otherwise the default build paths
+//! (`target/thumbv7em-none-eabihf/release/firmware`, `target/f405/...`), which must exist:
+//! the runner builds nothing. Needs `qemu-system-arm`, like the PIL tests.
 //!
 //! When a change makes a figure grow on purpose, update the expectation in the same change
 //! (`docs/benchmarks.md`, "Updating the expectations"): that is the reviewed decision.

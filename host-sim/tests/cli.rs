@@ -270,3 +270,21 @@ fn dock_pil_reports_the_step_cost_on_the_mcu_and_refuses_a_changed_configuration
     assert!(!ok);
     assert!(stderr.contains("built-in default"), "{stderr}");
 }
+
+/// PIL flies the ELF it is given and builds nothing: a missing one is refused with the
+/// command that builds it.
+#[test]
+fn cli_pil_without_the_firmware_elf_names_the_build_command() {
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["dock", "--pil", "--no-files"])
+        .env("IBVS_FIRMWARE_ELF", "/nonexistent/firmware")
+        .output()
+        .expect("run host-sim");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("/nonexistent/firmware")
+            && stderr.contains("cargo build -p firmware --target thumbv7em-none-eabihf --release"),
+        "{stderr}"
+    );
+}

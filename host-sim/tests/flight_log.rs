@@ -2,8 +2,9 @@
 //! the MCAP file opens with the `mcap` crate's reader and holds the documented channels, one
 //! message per control step each, whose values are the run's; the GIF has one frame per five
 //! control steps (and the last), of the stated size, and is the same bytes every time.
-//! Processor in the loop (needs QEMU and builds the firmware): the link channels carry the
-//! raw frames, which decode to what the run flew.
+//! Processor in the loop (needs QEMU and the firmware ELF, `host_sim::pil::firmware_elf`: it
+//! is not built here): the link channels carry the raw frames, which decode to what the run
+//! flew.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

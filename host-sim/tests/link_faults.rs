@@ -1,7 +1,7 @@
 //! Fault injection through the real serial link: the firmware runs in QEMU and the host
 //! corrupts, drops, delays and duplicates measurement frames and sends garbage.
 //!
-//! What must hold (issue 4):
+//! What must hold over a faulty link:
 //! - the firmware recovers framing after every fault (the next good frame is answered);
 //! - it counts each error: its reported [`LinkCounters`] equal those of a replay of every
 //!   byte the host sent through the core's own decoder (an exact model, since both ends
@@ -231,6 +231,7 @@ fn approach_input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
             // A slowly closing drogue: every frame's content differs, as a working
             // tracker's does (the core rejects a frozen one).
             depth_m: 6.0 - 0.001 * (cam_seq % 1000) as f32,
+            probe_tip: None,
         },
         nav: NavSample::default(),
         probe_contact: false,
@@ -276,10 +277,11 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
         }
     };
 
-    // 1. One second of frames: engaged, approaching, link fresh.
+    // 1. One second of frames: engaged (the refuelling procedure: at the pre-contact
+    //    station), link fresh.
     send_for(&mut link, &mut frames, Duration::from_secs(1));
     let a = *frames.last().expect("command frames");
-    assert_eq!(a.output.mode, Mode::Approach, "{a:?}");
+    assert_eq!(a.output.mode, Mode::PreContact, "{a:?}");
     assert!(!a.link_status.contains(LinkStatus::STALE));
     assert_eq!(a.link.timeouts, 0);
     let engaged_at = frames.len();

@@ -194,8 +194,29 @@ fn an_off_nominal_cg_is_trimmed_for_and_still_docks() {
     }
 }
 
+/// The variables a batch system sets for the shard of a job.
+const BATCH_VARS: [&str; 6] = [
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_MAX",
+    "SLURM_ARRAY_TASK_COUNT",
+    "SLURM_ARRAY_TASK_STEP",
+    "JOB_COMPLETION_INDEX",
+];
+
 fn host_sim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+    host_sim_in(&[], args)
+}
+
+/// `host-sim args` with exactly the batch variables `vars` set (none inherited from the
+/// environment the tests run in, which may itself be a batch job).
+fn host_sim_in(vars: &[(&str, &str)], args: &[&str]) -> (bool, String, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_host-sim"));
+    for v in BATCH_VARS {
+        cmd.env_remove(v);
+    }
+    let out = cmd
+        .envs(vars.iter().copied())
         .args(args)
         .output()
         .expect("host-sim runs");
@@ -283,5 +304,59 @@ fn cli_runs_a_fifty_run_campaign_in_shards_and_merges_it() {
     assert!(!ok && stderr.contains("K/M"), "{stderr}");
     let (ok, _, stderr) = host_sim(&["montecarlo", "--scenario", "calm"]);
     assert!(!ok && stderr.contains("--runs"), "{stderr}");
+    std::fs::remove_dir_all(&root).ok();
+}
+
+/// A Slurm array task and a Kubernetes Indexed Job pod each fly the shard their environment
+/// names (checked in campaign.json and in the run indices written), an explicit `--shard`
+/// wins over the environment, and an Indexed Job without `--shards` is refused.
+#[test]
+fn cli_takes_the_shard_from_a_batch_job_environment() {
+    let root = temp("batch");
+    let dir = |n: &str| root.join(n).to_str().expect("utf-8").to_string();
+    let fly = |vars: &[(&str, &str)], extra: &[&str], name: &str| {
+        let mut args = vec!["montecarlo", "--scenario", "calm", "--runs", "4", "--out"];
+        let out = dir(name);
+        args.push(&out);
+        args.extend_from_slice(extra);
+        let (ok, _, stderr) = host_sim_in(vars, &args);
+        assert!(ok, "{stderr}");
+        let meta: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(root.join(name).join("campaign.json")).expect("campaign"),
+        )
+        .expect("json");
+        let runs: Vec<u64> = records(&root.join(name)).iter().map(|r| r.index).collect();
+        (meta["shard"].as_str().map(str::to_owned), runs, stderr)
+    };
+    let slurm = [
+        ("SLURM_ARRAY_TASK_ID", "5"),
+        ("SLURM_ARRAY_TASK_MIN", "4"),
+        ("SLURM_ARRAY_TASK_MAX", "6"),
+        ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ("SLURM_ARRAY_TASK_STEP", "1"),
+    ];
+    let (shard, runs, stderr) = fly(&slurm, &[], "slurm");
+    assert_eq!(shard.as_deref(), Some("2/3"), "{stderr}");
+    assert_eq!(runs, [1]);
+    assert!(stderr.contains("from the Slurm job array"), "{stderr}");
+    let (shard, runs, _) = fly(&[("JOB_COMPLETION_INDEX", "2")], &["--shards", "3"], "k8s");
+    assert_eq!(shard.as_deref(), Some("3/3"));
+    assert_eq!(runs, [2]);
+    let (shard, runs, _) = fly(&slurm, &["--shard", "1/2"], "explicit");
+    assert_eq!(shard.as_deref(), Some("1/2"));
+    assert_eq!(runs, [0, 2]);
+    let (ok, _, stderr) = host_sim_in(
+        &[("JOB_COMPLETION_INDEX", "0")],
+        &[
+            "montecarlo",
+            "--scenario",
+            "calm",
+            "--runs",
+            "4",
+            "--out",
+            &dir("refused"),
+        ],
+    );
+    assert!(!ok && stderr.contains("--shards M"), "{stderr}");
     std::fs::remove_dir_all(&root).ok();
 }

@@ -2,12 +2,11 @@
 //! simulated receiver over its serial link, and must fly it exactly as the controller does
 //! in-process.
 //!
-//! Needs `qemu-system-arm` and the firmware ELF: [`firmware_elf`] builds it (its own target
-//! directory, so no deadlock on the build lock of the running `cargo test`) unless
-//! `IBVS_FIRMWARE_ELF` names one. The acceptance check of issue 4: same outcome, miss within
-//! 2 cm, same mode sequence. Since the Cortex-M4F and the host both compute the core's `f32`
-//! arithmetic in IEEE single precision without fused or flushed operations, the outputs are
-//! in fact identical bit for bit, and that is checked too.
+//! Needs `qemu-system-arm` and the firmware ELF ([`firmware_elf`]: `IBVS_FIRMWARE_ELF`, as
+//! `scripts/test-all.sh` sets it, or the default build path; it is not built here). The processor-in-the-loop acceptance check: same outcome,
+//! miss within 2 cm, same mode sequence. Since the Cortex-M4F and the host both compute the
+//! core's `f32` arithmetic in IEEE single precision without fused or flushed operations, the
+//! outputs are in fact identical bit for bit, and that is checked too.
 
 use host_sim::pil::{PilFlightComputer, firmware_elf};
 use host_sim::sim::{Run, Scenario, run};

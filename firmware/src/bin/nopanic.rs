@@ -1,9 +1,9 @@
 //! # nopanic: a link-time proof that the flight code cannot panic
 //!
-//! This binary calls [`Controller::new`] on an arbitrary configuration and
-//! [`Controller::step`] on arbitrary inputs (both through `black_box`, so the optimiser must
-//! keep every path), then the link code on arbitrary bytes: [`FrameDecoder::feed`], the
-//! measurement frame's deserialisation and [`encode_downlink`]. Its panic handler calls a
+//! This binary calls [`Controller::new`](ibvs_core::Controller::new) on an arbitrary configuration and
+//! [`Controller::step`](ibvs_core::Controller::step) on arbitrary inputs (both through `black_box`, so the optimiser must
+//! keep every path), then the link code on arbitrary bytes: [`FrameDecoder::feed`](ibvs_core::wire::FrameDecoder::feed), the
+//! measurement frame's deserialisation and [`encode_downlink`](ibvs_core::wire::encode_downlink). Its panic handler calls a
 //! function that does not exist. The release build (LTO, dead code removed) therefore links
 //! only if no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow
 //! check or an `unreachable!` that the optimiser could not prove dead would keep the panic

@@ -11,7 +11,7 @@
 //! - `free-running`: the free-running schedule (SysTick at 50 Hz);
 //! - `self-test`: the power-on self-test only, its result as QEMU's exit status
 //!   (what `cargo run --target thumbv7em-none-eabihf` does, see `.cargo/config.toml`);
-//! - `bench`: print what each path of the control step, a frame decode and a frame encode
+//! - `bench` (a build with the `bench` feature; otherwise exit 1 saying so): print what each path of the control step, a frame decode and a frame encode
 //!   cost ([`crate::bench`], one JSON line), exit 0;
 //! - `panic-test`: panic once the link is up, to test the fault path (`super::fault`).
 //!
@@ -25,8 +25,10 @@ use stm32f4xx_hal::pac;
 use super::McuBoard;
 use super::fault::{FaultRecord, halt};
 use crate::app::{App, CostCounter, Event, Schedule};
+#[cfg(feature = "bench")]
+use crate::bench;
+use crate::one_step;
 use crate::one_step::Micro;
-use crate::{bench, one_step};
 
 /// The stack high-water mark, as text ("4628 B" or "unknown").
 struct StackMark;
@@ -136,10 +138,18 @@ pub fn start() -> ! {
         }
     }
     if args.has("bench") {
-        let c = bench::measure::<Tim2Counter>();
-        hprintln!("firmware bench: {}", bench::Json(&c, "instructions"));
-        hprintln!("firmware bench: stack high-water mark {}", StackMark);
-        debug::exit(debug::EXIT_SUCCESS);
+        #[cfg(feature = "bench")]
+        {
+            let c = bench::measure::<Tim2Counter>();
+            hprintln!("firmware bench: {}", bench::Json(&c, "instructions"));
+            hprintln!("firmware bench: stack high-water mark {}", StackMark);
+            debug::exit(debug::EXIT_SUCCESS);
+        }
+        #[cfg(not(feature = "bench"))]
+        {
+            hprintln!("firmware: built without the bench feature (--features bench)");
+            debug::exit(debug::EXIT_FAILURE);
+        }
         halt()
     }
 

@@ -1,8 +1,8 @@
 //! Control-surface actuators and throttle limits of the F-16 receiver.
 //!
-//! Source: `[actuators]` of `data/f16-lofi-data.toml` and `model-data.md` (the paper authors'
-//! simulation): each surface is a first-order lag of bandwidth 20.2 rad/s toward its command
-//! clamped to the position limit, with its rate limited,
+//! Source: `[actuators]` of `data/f16-lofi-data.toml` and `docs/models.md`, "Actuators" (the
+//! paper authors' simulation): each surface is a first-order lag of bandwidth 20.2 rad/s
+//! toward its command clamped to the position limit, with its rate limited,
 //! `d(delta)/dt = clamp(w (clamp(cmd, +/-limit) - delta), +/-rate_limit)`; the throttle is
 //! clamped to its range and drives the engine's power lag (see `engine.rs`).
 //! Invariants: parameters are SI (rad, rad/s) and pass [`ActuatorParams::validate`] before the

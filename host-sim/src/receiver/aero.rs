@@ -10,10 +10,10 @@
 //! moments about the actual CG. Evaluation never allocates.
 
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 use super::data::{AeroData, AlphaRow, Grids, N_BETA, N_BETA_ABS, N_ELEVATOR};
 use super::interp::{interp1, interp2};
-use super::model::ReferenceGeometry;
 
 /// Side-force coefficient per degree of sideslip.
 const CY_PER_BETA_DEG: f64 = -0.02;
@@ -31,6 +31,17 @@ const ELEVATOR_NORM_DEG: f64 = 25.0;
 const AILERON_NORM_DEG: f64 = 20.0;
 /// Rudder deflection that normalises the rudder (`drdr`), deg.
 const RUDDER_NORM_DEG: f64 = 30.0;
+
+/// Wing reference geometry.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceGeometry {
+    /// Wing reference area S, m^2.
+    pub wing_area_m2: f64,
+    /// Wing span b, m.
+    pub span_m: f64,
+    /// Mean aerodynamic chord cbar, m.
+    pub mean_chord_m: f64,
+}
 
 /// Rows of the damping table, in [`super::data::DAMPING_ORDER`] (checked at load).
 const CXQ: usize = 0;

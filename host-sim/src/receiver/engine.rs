@@ -5,7 +5,7 @@
 //! listing (functions TGEAR, PDOT, RTAU of Stevens, Lewis & Johnson App. A): (1) whenever the
 //! actual power is at or above 50 % the rate is 5 /s, also when the command is below 50 % (target
 //! then 40 %); (2) RTAU takes the signed difference `target - actual`, so a decrease always uses
-//! 1/tau = 1 /s. (The shared reference copy of the data file words both differently.)
+//! 1/tau = 1 /s. (An earlier wording of the data file's comment stated both differently.)
 //! Invariants: power state and commands in percent (0..100), throttle as a fraction (0..1),
 //! thrust out in newtons along body x; English units (lbf, ft) only inside [`Engine::thrust_n`].
 

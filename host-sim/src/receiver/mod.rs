@@ -2,8 +2,9 @@
 //!
 //! Source: Stevens, Lewis & Johnson, *Aircraft Control and Simulation*, App. A (low-fidelity
 //! F-16 from NASA TP-1538), tables and formulas in `host-sim/data/f16-lofi-data.toml`, embedded
-//! at build time; actuator data from `model-data.md`. Equations of motion: flat, non-rotating
-//! earth, constant mass, wind as a steady air-mass velocity (see [`F16`] and `model.rs`).
+//! at build time; actuator data from `docs/models.md`, "Actuators". Equations of motion:
+//! flat, non-rotating earth, constant mass, wind as a steady air-mass velocity (see [`F16`]
+//! and `model.rs`).
 //! Invariants: every public quantity is SI (m, m/s, rad, rad/s, kg, N, Pa) with body axes
 //! x forward, y right, z down and NED position; English units and degrees exist only inside, and
 //! are converted with the named constants of `units.rs`. Stepping the model never allocates.
@@ -24,8 +25,9 @@ mod trim;
 mod units;
 
 pub use actuators::{ActuatorParams, SurfaceLimits};
+pub use aero::ReferenceGeometry;
 pub use data::ModelError;
-pub use model::{AirData, BodyLoads, F16, ReferenceGeometry};
+pub use model::{AirData, BodyLoads, F16};
 pub use state::{
     ReceiverCommand, ReceiverState, STATE_DIM, StateVector, Surfaces, Wind, state_index,
 };

@@ -19,23 +19,12 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::actuators::ActuatorParams;
-use super::aero::{AeroInput, AeroModel};
+use super::aero::{AeroInput, AeroModel, ReferenceGeometry};
 use super::atmosphere::Atmosphere;
 use super::data::{ModelData, ModelError};
 use super::engine::{Engine, commanded_power_pct, power_rate_pct_per_s};
 use super::state::{ReceiverCommand, ReceiverState, StateVector, Wind};
 use super::units::{KG_M2_PER_SLUG_FT2, KG_PER_SLUG, M_PER_FT};
-
-/// Wing reference geometry.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ReferenceGeometry {
-    /// Wing reference area S, m^2.
-    pub wing_area_m2: f64,
-    /// Wing span b, m.
-    pub span_m: f64,
-    /// Mean aerodynamic chord cbar, m.
-    pub mean_chord_m: f64,
-}
 
 /// Air data of the receiver, from its air-relative velocity and altitude.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -51,8 +51,9 @@ fn channel(name: &str, doc: &str, d: &ChannelDesign) -> String {
     )
 }
 
-/// The module's full text.
-pub fn render(s: &Synthesis) -> String {
+/// The module's full text: the paper's procedure's design `s` and the refuelling
+/// procedure's `refuel` (the same plant, trim and engine model; other weights).
+pub fn render(s: &Synthesis, refuel: &Synthesis) -> String {
     let t = &s.trim;
     let w = &s.weights;
     let mut out = String::new();
@@ -113,6 +114,23 @@ pub fn render(s: &Synthesis) -> String {
         "LAT",
         "Lateral channel: aileron and rudder.",
         &s.lat,
+    ));
+    let (rw, _) = (&refuel.weights, ());
+    let _ = write!(
+        out,
+        "\n/// The refuelling procedure's design, weights (diagonal): lon Q {:?}, R {:?}; lat Q {:?}, R {:?}.\n",
+        rw.lon_q, rw.lon_r, rw.lat_q, rw.lat_r
+    );
+    out.push_str(&channel(
+        "REFUEL_LON",
+        "Longitudinal channel of the refuelling procedure: elevator and throttle.",
+        &refuel.lon,
+    ));
+    out.push('\n');
+    out.push_str(&channel(
+        "REFUEL_LAT",
+        "Lateral channel of the refuelling procedure: aileron and rudder.",
+        &refuel.lat,
     ));
     out
 }

@@ -1,7 +1,7 @@
 //! The bow wave: the force the receiver's forebody flow field exerts on the drogue as the
 //! probe approaches it, from the authors' closed-form fit.
 //!
-//! Source: model-data.md "Bow wave" ([D] Dai, Wei & Quan 2016; the closed form used in [R]).
+//! Source: docs/models.md, "Bow wave" (\[D\] Dai, Wei & Quan 2016; the closed form used in \[R\]).
 //! With `(x, y, z)` = drogue position minus (receiver CG + [3.75, 0, -0.86] m), tanker axes
 //! (x forward, y right, z down), m, the force on the drogue in tanker axes, N, is
 //!
@@ -43,10 +43,11 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-/// Nose reference point relative to the receiver CG, tanker axes, m (model-data.md, [R]).
+/// Nose reference point relative to the receiver CG, tanker axes, m (docs/models.md,
+/// "Bow wave"; \[R\]).
 pub const NOSE_REF_FROM_CG_M: [f64; 3] = [3.75, 0.0, -0.86];
 
-// Fit coefficients (model-data.md, "Bow wave"). Lengths in m, forces in N.
+// Fit coefficients (docs/models.md, "Bow wave"). Lengths in m, forces in N.
 /// `Fx` is zero ahead of this x, m.
 pub const FX_END_X_M: f64 = 5.6493;
 /// `Fx` gains the near-field term `B` at and behind this x, m.
@@ -195,7 +196,7 @@ mod tests {
         Vector3::new(x, y, z)
     }
 
-    /// The docked geometry of model-data.md: about (+53, +44, -52) N.
+    /// The docked geometry of docs/models.md, "Bow wave": about (+53, +44, -52) N.
     #[test]
     fn docked_value() {
         let f = bow_wave_force_tanker_n(&v(2.31, 0.54, 0.0));

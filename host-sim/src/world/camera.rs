@@ -22,12 +22,13 @@ pub struct CameraParams {
     /// Focal length, px.
     pub focal_px: f64,
     /// Depth below which the LED ring can no longer be fitted, m (judgement: the ring
-    /// leaves the field of view and the fit degrades inside about a metre; paper-notes item 7).
+    /// leaves the field of view and the fit degrades inside about a metre; docs/paper.md,
+    /// item 7).
     pub min_range_m: f64,
 }
 
 impl Default for CameraParams {
-    /// 640 x 480 px, f = 500 px (model-data.md, "Camera"), blind inside 0.5 m.
+    /// 640 x 480 px, f = 500 px (docs/models.md, "Camera"), blind inside 0.5 m.
     fn default() -> Self {
         Self {
             width_px: 640.0,
@@ -43,13 +44,25 @@ impl Default for CameraParams {
 pub struct PinholeCamera {
     /// Intrinsics and limits.
     pub params: CameraParams,
+    /// The probe tip's marker in camera axes, m, when in view.
+    probe_tip_camera_m: Option<Vector3<f64>>,
     seq: u32,
 }
 
 impl PinholeCamera {
     /// A camera with `params`; its first frame is number 1.
     pub fn new(params: CameraParams) -> Self {
-        Self { params, seq: 0 }
+        Self {
+            params,
+            probe_tip_camera_m: None,
+            seq: 0,
+        }
+    }
+
+    /// Shows the probe tip's marker, fixed at `tip_camera_m` in camera axes (m), in every
+    /// frame (exactly, as the ideal camera sees everything); `None`: not in view.
+    pub fn set_probe_tip(&mut self, tip_camera_m: Option<Vector3<f64>>) {
+        self.probe_tip_camera_m = tip_camera_m.filter(|t| t.z > 0.0);
     }
 
     /// Takes one frame (the sequence number advances every call).
@@ -72,6 +85,10 @@ impl PinholeCamera {
             image_x: if visible { ix as f32 } else { 0.0 },
             image_y: if visible { iy as f32 } else { 0.0 },
             depth_m: if visible { p.z as f32 } else { 0.0 },
+            probe_tip: self
+                .probe_tip_camera_m
+                .filter(|_| visible)
+                .map(|t| [(t.x / t.z) as f32, (t.y / t.z) as f32]),
         }
     }
 }

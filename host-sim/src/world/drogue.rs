@@ -1,12 +1,12 @@
-//! The drogue. In this slice it is held at its nominal steady trail position; the multi-link
-//! hose and drogue dynamics replace it later behind the same interface.
+//! The ideal world's drogue: held at its nominal steady trail position. The full world's
+//! drogue is the last node of the multi-link hose (`world::hose`), behind the same interface.
 //!
 //! Invariant: positions are in the tanker frame (x forward, y right, z down), metres.
 
 use nalgebra::Vector3;
 
 /// Nominal drogue position behind the tanker (steady trail of the hose), tanker frame, m
-/// (model-data.md, from the authors' simulation).
+/// (docs/models.md, "Flight condition and frames"; from the authors' simulation).
 pub const NOMINAL_DROGUE_TANKER_M: [f64; 3] = [-14.35, 0.0, 5.12];
 
 /// Capture radius of the drogue around its centre, m (the authors' docking check).

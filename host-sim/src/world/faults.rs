@@ -384,6 +384,7 @@ mod tests {
             image_x: x,
             image_y: 0.0,
             depth_m: 5.0,
+            probe_tip: None,
         }
     }
 

@@ -10,7 +10,7 @@
 //! Reynolds-number dependent coefficients, gravity, and the drogue's drag at the end. The
 //! parameter values and the coefficient laws are those of the paper authors' public
 //! simulation (\[R\], RflySim/RflySimAAR, `Origin_Paper_Figure_Sim/Ch11`), as collected in
-//! `model-data.md` ("Hose and drogue"); the few places where we depart from it are listed on
+//! `docs/models.md` ("Hose and drogue"); the few places where we depart from it are listed on
 //! [`HoseDragLaw`] and [`HoseParams`]. The formulation and the code are ours.
 //!
 //! # Formulation
@@ -81,7 +81,7 @@ pub const HOSE_OUTER_RADIUS_M: f64 = 0.0336;
 pub const DROGUE_MASS_KG: f64 = 29.484;
 
 /// Drogue canopy diameter, m: 24 in, \[R\]. (The authors' "32-inch basket" elsewhere is a
-/// different drogue; model-data.md.)
+/// different drogue; docs/models.md, "Hose and drogue".)
 pub const DROGUE_CANOPY_DIAMETER_M: f64 = 0.6096;
 
 /// Drogue drag coefficient on the canopy's frontal area, \[R\].
@@ -179,7 +179,7 @@ pub enum HoseDragLaw {
     },
 }
 
-/// Every physical and numerical parameter of the hose and drogue. `Default` is model-data.md
+/// Every physical and numerical parameter of the hose and drogue. `Default` is docs/models.md
 /// ("Hose and drogue"), with the receiver model's air at 3000 m.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct HoseParams {
@@ -948,7 +948,8 @@ fn solve_tridiagonal(diag: &[f64], off: &[f64], rhs: &mut [f64], scratch: &mut [
     }
 }
 
-// Coefficient laws of [R] (model-data.md; attributed there to [RK]); see `HoseDragLaw`.
+// Coefficient laws of [R] (docs/models.md, "Hose and drogue"; attributed there to [RK]); see
+// `HoseDragLaw`.
 
 /// Reynolds number below which the coefficient laws are held constant.
 const RE_FLOOR: f64 = 1e-2;
@@ -1122,11 +1123,12 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// Tanker (= calm-air) speed, m/s (model-data.md, "Flight condition and frames").
+    /// Tanker (= calm-air) speed, m/s (docs/models.md, "Flight condition and frames").
     const V_MPS: f64 = 120.0;
     /// The simulator's physics step, s.
     const DT_S: f64 = 0.01;
-    /// Nominal drogue position of the authors' simulation, tanker frame, m (model-data.md).
+    /// Nominal drogue position of the authors' simulation, tanker frame, m
+    /// (docs/models.md, "Flight condition and frames").
     const NOMINAL_M: [f64; 3] = [-14.35, 0.0, 5.12];
 
     fn calm(_: &Vector3<f64>) -> Vector3<f64> {

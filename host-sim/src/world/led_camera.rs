@@ -560,6 +560,8 @@ fn quantise(x: f64, step: f64) -> f64 {
 /// The LED ring camera. See the module doc for the model and its invariants.
 #[derive(Debug, Clone)]
 pub struct LedCamera {
+    /// The probe tip's marker in camera axes, m, when it is in view (a set-back camera).
+    probe_tip_camera_m: Option<Vector3<f64>>,
     params: LedCameraParams,
     rng: ChaCha8Rng,
     /// Time of the first `update` call: the camera's clock origin, s.
@@ -599,7 +601,17 @@ impl LedCamera {
             in_flight: VecDeque::with_capacity(capacity),
             latest: None,
             occluded: 0,
+            probe_tip_camera_m: None,
         })
+    }
+
+    /// Shows the probe tip's marker, fixed at `tip_camera_m` in camera axes (m), in every
+    /// frame from now on (`None`: no marker in view, a camera at the tip). It is imaged
+    /// with the LEDs' noise and quantisation and reported with the ring's fit; its noise is
+    /// drawn in every frame, marker or not, so the rest of the run's noise does not depend
+    /// on it.
+    pub fn set_probe_tip(&mut self, tip_camera_m: Option<Vector3<f64>>) {
+        self.probe_tip_camera_m = tip_camera_m.filter(|t| t.z > 0.0);
     }
 
     /// The parameters.
@@ -685,6 +697,27 @@ impl LedCamera {
             let nv: f64 = self.rng.sample(StandardNormal);
             *n = Vector2::new(nu, nv) * p.pixel_noise_px;
         }
+        let tip_noise = {
+            let nu: f64 = self.rng.sample(StandardNormal);
+            let nv: f64 = self.rng.sample(StandardNormal);
+            Vector2::new(nu, nv) * p.pixel_noise_px
+        };
+        let probe_tip = self.probe_tip_camera_m.and_then(|t| {
+            let u = quantise(
+                p.focal_px * t.x / t.z + p.principal_u_px + tip_noise.x,
+                p.quantisation_px,
+            );
+            let v = quantise(
+                p.focal_px * t.y / t.z + p.principal_v_px + tip_noise.y,
+                p.quantisation_px,
+            );
+            ((0.0..=p.width_px).contains(&u) && (0.0..=p.height_px).contains(&v)).then(|| {
+                [
+                    ((u - p.principal_u_px) / p.focal_px) as f32,
+                    ((v - p.principal_v_px) / p.focal_px) as f32,
+                ]
+            })
+        });
 
         let camera_from_tanker = scene.pose.tanker_from_camera.inverse();
         let to_camera = |x: &Vector3<f64>| camera_from_tanker * (x - scene.pose.position_tanker_m);
@@ -743,6 +776,7 @@ impl LedCamera {
                 image_x: ((c.centre_px.x - p.principal_u_px) / p.focal_px) as f32,
                 image_y: ((c.centre_px.y - p.principal_v_px) / p.focal_px) as f32,
                 depth_m: (p.focal_px * p.ring_radius_m / c.radius_px) as f32,
+                probe_tip,
             },
             None => CameraMeasurement {
                 seq: self.last_seq,

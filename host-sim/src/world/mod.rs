@@ -108,7 +108,7 @@ pub enum Camera {
 }
 
 /// Bow-wave reference point: the receiver's nose, relative to its CG, tanker axes, m
-/// (model-data.md, "Bow wave").
+/// (docs/models.md, "Bow wave").
 pub const BOW_WAVE_NOSE_FROM_CG_M: [f64; 3] = [3.75, 0.0, -0.86];
 
 /// Receiver span and length for the wake's rotation rates (F-16: 9.45 m, 15.0 m).

@@ -1,7 +1,7 @@
 //! Dryden atmospheric turbulence (MIL-F-8785C form): a seeded, exactly discretised gust
 //! generator and a frozen-field (Taylor) sampler along the tanker's x axis.
 //!
-//! Source: model-data.md "Turbulence" [MIL]. Each gust component is continuous white noise
+//! Source: docs/models.md, "Turbulence" \[MIL\]. Each gust component is continuous white noise
 //! through a shaping filter (`T = L / V`):
 //!
 //! ```text
@@ -52,18 +52,58 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-/// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m (MIL-F-8785C, model-data.md).
+/// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
+/// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
-/// Tanker airspeed of the refuelling condition, m/s (model-data.md, [R]).
+/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]).
 pub const TRIM_AIRSPEED_MPS: f64 = 120.0;
 /// Preset "level I" (the paper's light turbulence, about 5 ft/s peak): sigma, m/s
-/// (judgement, model-data.md: peaks near 3 sigma).
+/// (judgement, docs/models.md, "Turbulence": peaks near 3 sigma).
 pub const LEVEL1_SIGMA_MPS: f64 = 0.5;
-/// Preset "level II" (the paper's, about 7 ft/s peak): sigma, m/s (judgement, model-data.md).
+/// Preset "level II" (the paper's, about 7 ft/s peak): sigma, m/s
+/// (judgement, docs/models.md, "Turbulence").
 pub const LEVEL2_SIGMA_MPS: f64 = 0.7;
 /// Preset "moderate": MIL-F-8785C high-altitude intensity at probability of exceedance 1e-2,
-/// about 3000 m (6.0 ft/s), m/s (model-data.md).
+/// about 3000 m (6.0 ft/s), m/s (docs/models.md, "Turbulence").
 pub const MODERATE_SIGMA_MPS: f64 = 1.8;
+/// MIL-F-8785C, Fig. 7 (high-altitude model): RMS turbulence intensity by altitude and
+/// probability of exceedance, as tabulated in JSBSim's `FGWinds.cpp` (`POE_Table`):
+/// altitudes in ft, then one row per probability `(p, [ft/s at each altitude])`
+/// (`docs/models.md`, "Turbulence").
+const MIL_F_8785C_ALTITUDES_FT: [f64; 7] =
+    [500.0, 1750.0, 3750.0, 7500.0, 15000.0, 25000.0, 35000.0];
+const MIL_F_8785C_RMS_FTPS: [(f64, [f64; 7]); 6] = [
+    (2e-1, [3.2, 2.2, 1.5, 0.0, 0.0, 0.0, 0.0]),
+    (1e-1, [4.2, 3.6, 3.3, 1.6, 0.0, 0.0, 0.0]),
+    (1e-2, [6.6, 6.9, 7.4, 6.7, 4.6, 2.7, 0.4]),
+    (1e-3, [8.6, 9.6, 10.6, 10.1, 8.0, 6.6, 5.0]),
+    (1e-4, [11.8, 13.0, 16.0, 15.1, 11.6, 9.7, 8.1]),
+    (1e-5, [15.6, 17.6, 23.0, 23.6, 22.1, 20.0, 16.0]),
+];
+
+/// MIL-F-8785C's RMS turbulence intensity (the same on the three axes above 2000 ft) at
+/// `altitude_m` for the tabulated probability of exceedance `probability` (one of 0.2, 0.1,
+/// 1e-2 .. 1e-5), m/s: linear in altitude between the table's points, its end values outside
+/// them. `None` for a probability the table does not have.
+pub fn mil_f_8785c_sigma_mps(altitude_m: f64, probability: f64) -> Option<f64> {
+    const FT: f64 = 0.3048;
+    let (_, row) = MIL_F_8785C_RMS_FTPS
+        .iter()
+        .find(|(p, _)| ((p - probability) / p).abs() < 1e-9)?;
+    let h = altitude_m / FT;
+    let a = &MIL_F_8785C_ALTITUDES_FT;
+    let ftps = if h <= a[0] {
+        row[0]
+    } else if h >= a[6] {
+        row[6]
+    } else {
+        let i = a.windows(2).position(|w| h <= w[1]).unwrap_or(5);
+        let f = (h - a[i]) / (a[i + 1] - a[i]);
+        row[i] + f * (row[i + 1] - row[i])
+    };
+    Some(ftps * FT)
+}
+
 /// How far aft of the reference point (the hose exit) the frozen-field history reaches, m.
 /// Points further aft see the gust of a point this far aft (the delay is clamped).
 pub const FROZEN_FIELD_DEPTH_M: f64 = 60.0;
@@ -435,6 +475,23 @@ fn step2(d: &Discretisation, x: [f64; 2], n: [f64; 2]) -> [f64; 2] {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_mil_table_at_3000_m_is_light_turbulence_of_1_84_mps() {
+        // 9843 ft: between 7500 ft (6.7 ft/s) and 15000 ft (4.6 ft/s) at 1e-2.
+        let s = mil_f_8785c_sigma_mps(3000.0, 1e-2).expect("tabulated");
+        let want = (6.7 + (9842.52 - 7500.0) / 7500.0 * (4.6 - 6.7)) * 0.3048;
+        assert!((s - want).abs() < 1e-3 && (s - 1.84).abs() < 0.01, "{s}");
+        // The table's own points, and its ends held outside it.
+        assert!(
+            (mil_f_8785c_sigma_mps(15000.0 * 0.3048, 1e-3).unwrap() - 8.0 * 0.3048).abs() < 1e-12
+        );
+        assert_eq!(
+            mil_f_8785c_sigma_mps(0.0, 1e-1),
+            mil_f_8785c_sigma_mps(152.4, 1e-1)
+        );
+        assert_eq!(mil_f_8785c_sigma_mps(3000.0, 0.5), None);
+    }
+
     use super::*;
 
     const T_TRIM_S: f64 = HIGH_ALTITUDE_SCALE_LENGTH_M / TRIM_AIRSPEED_MPS;

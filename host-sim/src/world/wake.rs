@@ -2,11 +2,11 @@
 //! the air-mass velocity the wake induces at a point of the tanker frame, and the rotation
 //! rates its gradients impose on an aircraft flying there.
 //!
-//! Source: model-data.md "Tanker wake" [R] (the authors' `TankerVortexWindField.m`, facts
+//! Source: docs/models.md, "Tanker wake" \[R\] (the authors' `TankerVortexWindField.m`, facts
 //! only): wing-tip trailing vortices at `y = +/-20 m` (span 40 m), a bound vortex, a tail pair
 //! of strength `Gamma / 30` at `(-12.44, +/-6.515, -1.27) m` from the wing centre,
 //! `Gamma = W / (rho V b')` with `W = 80,000 kg * 9.79434 m/s^2`, `V = 120 m/s`,
-//! `b' = (pi / 4) b` (elliptic loading). [R] uses `rho = 0.5895 kg/m^3` (352.6 m^2/s); we use
+//! `b' = (pi / 4) b` (elliptic loading). \[R\] uses `rho = 0.5895 kg/m^3` (352.6 m^2/s); we use
 //! the density of the receiver's atmosphere at 3000 m, 0.9104 kg/m^3 (228.7 m^2/s), so that
 //! one atmosphere serves the whole world. Each trailing vortex
 //! induces, at distance `r` from its axis and age `t`,
@@ -51,42 +51,43 @@ use std::f64::consts::PI;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-/// Tanker weight used for the circulation: mass, kg (model-data.md, [R]: half a KC-135's
-/// maximum load, as the authors chose).
+/// Tanker weight used for the circulation: mass, kg (docs/models.md, "Tanker wake";
+/// \[R\]: half a KC-135's maximum load, as the authors chose).
 pub const DEFAULT_TANKER_MASS_KG: f64 = 80_000.0;
-/// Gravity of the authors' circulation, m/s^2 ([R]: computed for 43.3 deg latitude; with it
-/// `Gamma` is the 352.6 m^2/s of model-data.md).
+/// Gravity of the authors' circulation, m/s^2 (\[R\]: computed for 43.3 deg latitude; with it
+/// `Gamma` is the authors' 352.6 m^2/s).
 pub const DEFAULT_GRAVITY_MPS2: f64 = 9.794_34;
 /// Air density of the circulation, kg/m^3: the receiver model's atmosphere at the refuelling
 /// altitude, 3000 m (our choice, for one consistent atmosphere; `Gamma` = 228.7 m^2/s).
-/// [R] uses 0.5895 kg/m^3, the density near 7000 m, which gives model-data.md's
+/// \[R\] uses 0.5895 kg/m^3, the density near 7000 m, which gives the authors'
 /// 352.6 m^2/s: [`AUTHORS_AIR_DENSITY_KGPM3`].
 pub const DEFAULT_AIR_DENSITY_KGPM3: f64 = 0.9104;
-/// The authors' circulation density, kg/m^3 ([R], model-data.md).
+/// The authors' circulation density, kg/m^3 (\[R\]; docs/models.md, "Tanker wake").
 pub const AUTHORS_AIR_DENSITY_KGPM3: f64 = 0.5895;
-/// Tanker airspeed, m/s (model-data.md).
+/// Tanker airspeed, m/s (docs/models.md, "Tanker wake").
 pub const DEFAULT_AIRSPEED_MPS: f64 = 120.0;
-/// Wing span, m: the tip vortices sit at `+/- span / 2` (model-data.md, [R]).
+/// Wing span, m: the tip vortices sit at `+/- span / 2` (docs/models.md, "Tanker wake"; \[R\]).
 pub const DEFAULT_WING_SPAN_M: f64 = 40.0;
 /// Wing centre ahead of the hose exit, m (ours: centreline hose-drum unit at the tail cone).
 pub const DEFAULT_WING_X_M: f64 = 15.0;
 /// Wing centre below the hose exit, m (ours: negative, the wing plane 2 m above it).
 pub const DEFAULT_WING_Z_M: f64 = -2.0;
-/// Right tail tip relative to the wing centre, m (model-data.md, [R]); the left is its mirror.
+/// Right tail tip relative to the wing centre, m (docs/models.md, "Tanker wake"; \[R\]); the left
+/// is its mirror.
 pub const DEFAULT_TAIL_FROM_WING_M: [f64; 3] = [-12.44, 6.515, -1.27];
-/// Tail circulation over wing circulation ([R]: `Gamma / 30`, rotating opposite to the
+/// Tail circulation over wing circulation (\[R\]: `Gamma / 30`, rotating opposite to the
 /// wing's, i.e. a tail download).
 pub const DEFAULT_TAIL_STRENGTH_RATIO: f64 = -1.0 / 30.0;
-/// Eddy viscosity over circulation, `nu = 0.06 |Gamma|` (model-data.md, [R]).
+/// Eddy viscosity over circulation, `nu = 0.06 |Gamma|` (docs/models.md, "Tanker wake"; \[R\]).
 pub const DEFAULT_VISCOSITY_RATIO: f64 = 0.06;
-/// Core radius growth, `rc = 2.24 sqrt(nu t)` (model-data.md, [R]).
+/// Core radius growth, `rc = 2.24 sqrt(nu t)` (docs/models.md, "Tanker wake"; \[R\]).
 pub const DEFAULT_CORE_GROWTH: f64 = 2.24;
 /// Core radius at the vortex origin and of the bound segments, m (ours: keeps the field
 /// finite at zero age; small beside the 5 m core the model gives at the drogue).
 pub const DEFAULT_INITIAL_CORE_RADIUS_M: f64 = 1.0;
 
-/// Parameters of the wake model. See the module doc; defaults are the model-data values
-/// and our geometry.
+/// Parameters of the wake model. See the module doc; defaults are the values of
+/// docs/models.md, "Tanker wake" (the authors' values and our geometry).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct WakeParams {
     /// When false the wake induces nothing.
@@ -374,7 +375,7 @@ impl TankerWake {
 mod tests {
     use super::*;
 
-    /// Nominal drogue, tanker frame, m (model-data.md).
+    /// Nominal drogue, tanker frame, m (docs/models.md, "Flight condition and frames").
     const DROGUE: [f64; 3] = [-14.35, 0.0, 5.12];
     /// Receiver CG when its probe tip (body [6.06, 0.54, -0.86] m) is at the drogue, wings
     /// level, pitch ignored: about 6 m further aft.

@@ -1,0 +1,950 @@
+//! Drogue estimator: where the drogue is relative to the probe tip, how it moves, and where
+//! it will be.
+//!
+//! Place in the data flow: beside the outer loop, in the refuelling procedure
+//! ([`crate::procedure`]). Every engaged step it *predicts* with the probe tip's own velocity
+//! from navigation (exact kinematics, [`crate::kinematics::point_velocity_tanker_mps`],
+//! tanker axes) and, when the step's camera frame is valid,
+//! *corrects* with the frame turned into the drogue's offset from the probe tip
+//! ([`TipGeometry::drogue_from_tip`]: camera set-back removed, de-rotated by the navigation
+//! attitude into tanker axes). Its estimate feeds the outer loop's feed-forward, the go/no-go
+//! gate's prediction and the capture phase, where a tip-mounted camera is blind and the
+//! estimate runs on prediction alone.
+//!
+//! # Model (`docs/conventions.md`, "Drogue estimator")
+//!
+//! Per axis (right, down and forward), tanker axes, a Kalman filter on
+//!
+//! ```text
+//! r' = v - u            r: drogue centre minus probe tip, m (measured); u: tip velocity (navigation)
+//! v' = -v / τ + w       v: drogue velocity relative to the tanker, m/s; w: white, PSD q
+//! ```
+//!
+//! the drogue's velocity a first-order Gauss-Markov process whose correlation time `τ` and
+//! intensity `q` are fitted to the simulated hose's response to Dryden turbulence
+//! (`host-sim drogue-model`: the velocity's autocorrelation falls to 1/e in about 1.3 s).
+//! The hose's swinging mode (period 3.9 s) would be the better physical model, but its
+//! displacement from the trail's equilibrium is not observable enough: with the few cm/s of
+//! error in the navigation's tip velocity, a filter carrying it predicted a swing of 0.24 m
+//! at 1.2 s for a drogue at rest in calm air (measured, `docs/conventions.md`). Discretised
+//! exactly at construction (`Ts`-step transition and process noise of the Gauss-Markov
+//! process). Measurement noise grows with the camera's depth (`offset_noise_*`,
+//! `depth_noise_*`).
+//!
+//! How hard the drogue is being driven (the air's turbulence) is not configured but measured:
+//! an exponential average of the estimated drogue velocity's square over
+//! [`EstimatorConfig::activity_time_constant_s`] gives the stationary velocity variance, and
+//! with it the PSD the predictions' uncertainty grows with (`q = 2 E[v²] / τ`, the process's
+//! stationary relation). It starts at the configured PSD's level (cautious) and settles within
+//! a few time constants: calm air makes the gate's margin small, strong turbulence large.
+//!
+//! Innovations beyond [`EstimatorConfig::gate_sigmas`] standard deviations are rejected and
+//! counted; after [`EstimatorConfig::max_rejections`] in a row the filter restarts from the
+//! frame (counted too): a drogue that really jumped is followed, an outlier is not.
+//!
+//! Invariants: static memory, no allocation, no loop that depends on the data, every
+//! covariance symmetric by construction (only its upper triangle is stored), and the state
+//! finite: a non-finite update restarts the filter from the frame.
+
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::{CameraMount, body_from_camera};
+use crate::num::sin_cos;
+
+/// Parameters of the drogue estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// Scenario files name only what they change; an unknown key is an error that names it.
+#[serde(default, deny_unknown_fields)]
+pub struct EstimatorConfig {
+    /// Correlation time of the drogue's lateral and vertical velocity, s. Default 1.3 s,
+    /// fitted to the simulated hose (`host-sim drogue-model`).
+    pub drogue_time_constant_s: f32,
+    /// Power spectral density of the white noise driving the drogue's lateral and vertical
+    /// velocity, m²/s³ (its stationary variance is `q τ / 2`). Default 0.1: the fit's 0.047
+    /// per (m/s of RMS gust)², at the design intensity of about 1.45 m/s (between the
+    /// paper's level II and MIL-F-8785C's 10⁻² intensity at 3,000 m).
+    pub drogue_accel_psd_m2ps3: f32,
+    /// Correlation time of the drogue's forward velocity, s.
+    pub drogue_fwd_time_constant_s: f32,
+    /// Power spectral density of the noise driving the drogue's forward velocity, m²/s³.
+    pub drogue_fwd_accel_psd_m2ps3: f32,
+    /// Standard deviation of a frame's offset (right, down) at zero depth, m.
+    pub offset_noise_m: f32,
+    /// Growth of that standard deviation per metre of camera depth, m/m. Default 0.002: a
+    /// fifth of a pixel of centroid noise at 500 px of focal length, plus the depth noise
+    /// times the image error.
+    pub offset_noise_per_m: f32,
+    /// Standard deviation of a frame's depth at zero depth, m.
+    pub depth_noise_m: f32,
+    /// Growth of the depth's standard deviation with the square of the camera depth, 1/m:
+    /// the LED ring's radius in pixels falls as 1/depth. Default 0.003.
+    pub depth_noise_per_m2: f32,
+    /// Initial standard deviation of the drogue's velocity when the filter (re)starts, m/s.
+    pub initial_velocity_sigma_mps: f32,
+    /// Innovation gate, standard deviations: a frame further from the prediction is rejected.
+    pub gate_sigmas: f32,
+    /// Time constant of the average of the drogue velocity's square that measures how hard
+    /// the air drives the drogue (for the predictions' uncertainty), s.
+    pub activity_time_constant_s: f32,
+    /// Time constant of the average offset ([`DrogueEstimate::mean_offset_m`]), s: longer
+    /// than the drogue's swing's correlation time.
+    pub mean_time_constant_s: f32,
+    /// Consecutive rejected frames after which the filter restarts from the frame.
+    pub max_rejections: u16,
+    /// Largest distance of the probe tip's measured image point from where the configured
+    /// geometry puts it, normalised image units; further is not the tip (rejected, counted).
+    /// Default 0.06: 16 cm at the 2.7 m of a set-back camera, three times the installation
+    /// tolerance the campaigns disperse.
+    pub tip_sight_tolerance: f32,
+    /// Weight of a new measurement of the tip's image point in its running average (the
+    /// tip is fixed in the camera's view: the average only removes the centroid noise).
+    pub tip_sight_filter: f32,
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        Self {
+            drogue_time_constant_s: 1.3,
+            drogue_accel_psd_m2ps3: 0.1,
+            drogue_fwd_time_constant_s: 2.0,
+            drogue_fwd_accel_psd_m2ps3: 0.005,
+            offset_noise_m: 0.002,
+            offset_noise_per_m: 0.002,
+            depth_noise_m: 0.005,
+            depth_noise_per_m2: 0.003,
+            initial_velocity_sigma_mps: 0.5,
+            gate_sigmas: 6.0,
+            activity_time_constant_s: 4.0,
+            mean_time_constant_s: 2.0,
+            max_rejections: 5,
+            tip_sight_tolerance: 0.06,
+            tip_sight_filter: 0.05,
+        }
+    }
+}
+
+/// Where the probe tip is, seen from the camera: the part of the geometry the estimator
+/// needs to turn a frame into the drogue's offset from the tip. Derived once from the
+/// believed camera mount and probe-tip position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TipGeometry {
+    /// Probe tip minus camera, camera-reference axes at trim (right, down, forward), m.
+    tip_from_camera_re_m: [f32; 3],
+    /// Trim pitch's sine and cosine: body roll is about an axis pitched up by it.
+    trim_pitch_sin_cos: [f32; 2],
+}
+
+impl TipGeometry {
+    /// The geometry of a `camera` mount (boresight level at trim when its pitch-down is the
+    /// trim pitch) and the probe tip, both in body axes, at the trim pitch `trim_pitch_rad`.
+    pub fn new(camera: &CameraMount, probe_tip_body_m: [f32; 3], trim_pitch_rad: f32) -> Self {
+        let d = [0, 1, 2].map(|i| probe_tip_body_m[i] - camera.position_body_m[i]);
+        // Camera axes (x right, y down, z boresight) from body axes: the transpose of the
+        // mount's rotation. At trim the camera axes are the reference axes `re`.
+        let r = body_from_camera(camera.pitch_down_rad);
+        let cam = [0, 1, 2].map(|c| r[(0, c)] * d[0] + r[(1, c)] * d[1] + r[(2, c)] * d[2]);
+        Self {
+            tip_from_camera_re_m: cam,
+            trim_pitch_sin_cos: {
+                let (s, c) = sin_cos(trim_pitch_rad);
+                [s, c]
+            },
+        }
+    }
+
+    /// Probe tip minus camera in the camera's axes at trim (right, down, forward), m.
+    pub fn tip_from_camera_m(&self) -> [f32; 3] {
+        self.tip_from_camera_re_m
+    }
+
+    /// Where the configured geometry puts the probe tip in the image, normalised (the
+    /// origin for a camera at the tip).
+    pub fn tip_image(&self) -> [f32; 2] {
+        let t = &self.tip_from_camera_re_m;
+        if t[2] > 0.0 {
+            [t[0] / t[2], t[1] / t[2]]
+        } else {
+            [0.0; 2]
+        }
+    }
+
+    /// The drogue centre minus the probe tip in tanker axes, `[right, down, forward]`, from a
+    /// frame's image point and depth, the probe tip's image point `tip_image` (measured,
+    /// [`TipSight`], or the geometry's [`TipGeometry::tip_image`]; its depth is the
+    /// geometry's) and the attitude's perturbation from trim (roll `phi`, pitch `theta`,
+    /// heading `psi`, rad). Small-angle de-rotation: the perturbations stay within a few
+    /// degrees while engaged (their second-order error is below 0.2 % of the range).
+    #[inline(always)]
+    pub fn drogue_from_tip(
+        &self,
+        image: [f32; 2],
+        depth_m: f32,
+        [phi, theta, psi]: [f32; 3],
+        tip_image: [f32; 2],
+    ) -> [f32; 3] {
+        let tz = self.tip_from_camera_re_m[2];
+        let t = [tip_image[0] * tz, tip_image[1] * tz, tz];
+        // Drogue minus tip in the camera's axes, reordered to tanker axes (fwd, right, down).
+        let a = [
+            depth_m - t[2],
+            image[0] * depth_m - t[0],
+            image[1] * depth_m - t[1],
+        ];
+        // Small rotation of the camera from its trim attitude, tanker axes: roll about the
+        // body x axis (pitched up by the trim pitch), pitch, heading.
+        let [s, c] = self.trim_pitch_sin_cos;
+        let w = [phi * c, theta, psi - phi * s];
+        [
+            a[1] + w[2] * a[0] - w[0] * a[2],
+            a[2] + w[0] * a[1] - w[1] * a[0],
+            a[0] + w[1] * a[2] - w[2] * a[1],
+        ]
+    }
+}
+
+/// The probe tip as the camera sees it: a running average of its measured image point,
+/// starting from where the configured geometry puts it. A measurement further than
+/// [`EstimatorConfig::tip_sight_tolerance`] from the geometry's point, or not finite, is
+/// rejected (counted by the caller); without measurements the average stays where it is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TipSight {
+    image: [f32; 2],
+    belief: [f32; 2],
+}
+
+/// What [`TipSight::observe`] did with a frame's tip measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TipSighting {
+    /// The frame had none (a camera at the tip, or the marker not found).
+    None,
+    /// Averaged in.
+    Used,
+    /// Not finite, or too far from the geometry's point: not the tip.
+    Rejected,
+}
+
+impl TipSight {
+    /// Starts at the geometry's point.
+    pub fn new(g: &TipGeometry) -> Self {
+        let p = g.tip_image();
+        Self {
+            image: p,
+            belief: p,
+        }
+    }
+
+    /// The tip's image point, normalised.
+    pub fn image(&self) -> [f32; 2] {
+        self.image
+    }
+
+    /// Takes a frame's tip measurement.
+    #[inline(always)]
+    pub fn observe(&mut self, tip: Option<[f32; 2]>, cfg: &EstimatorConfig) -> TipSighting {
+        let Some(m) = tip else {
+            return TipSighting::None;
+        };
+        let d = [m[0] - self.belief[0], m[1] - self.belief[1]];
+        // Also false for NaN.
+        let near = d[0] * d[0] + d[1] * d[1] <= cfg.tip_sight_tolerance * cfg.tip_sight_tolerance;
+        if !near {
+            return TipSighting::Rejected;
+        }
+        let k = cfg.tip_sight_filter;
+        self.image = [
+            self.image[0] + k * (m[0] - self.image[0]),
+            self.image[1] + k * (m[1] - self.image[1]),
+        ];
+        TipSighting::Used
+    }
+}
+
+/// The estimator's belief, as reported every step.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DrogueEstimate {
+    /// Drogue centre minus probe tip, `[right, down]`, tanker axes, m.
+    pub offset_m: [f32; 2],
+    /// The same averaged over [`EstimatorConfig::mean_time_constant_s`]: where the drogue
+    /// is on average, its swing left out, m.
+    pub mean_offset_m: [f32; 2],
+    /// Drogue velocity relative to the tanker, `[right, down, forward]`, m/s.
+    pub drogue_velocity_mps: [f32; 3],
+    /// Probe tip to the drogue plane, forward, m.
+    pub depth_m: f32,
+}
+
+impl DrogueEstimate {
+    /// Closing speed on the drogue for the probe tip's forward velocity `tip_fwd_mps`
+    /// (relative to the tanker), m/s.
+    pub fn closing_mps(&self, tip_fwd_mps: f32) -> f32 {
+        tip_fwd_mps - self.drogue_velocity_mps[2]
+    }
+}
+
+/// A prediction of the drogue's offset from the probe tip, one lateral axis.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AxisPrediction {
+    /// Predicted offset, m.
+    pub mean_m: f32,
+    /// Its variance, m².
+    pub variance_m2: f32,
+}
+
+/// One axis: state `[r, v]` and covariance `[rr, rv, vv]`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Axis {
+    x: [f32; 2],
+    p: [f32; 3],
+}
+
+/// One axis's discrete model: `x' = [[1, g], [0, f]] x - [Ts, 0] u`, process noise `q`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct AxisModel {
+    /// `exp(-Ts / τ)`.
+    f: f32,
+    /// `τ (1 - f)`: the offset's change per unit drogue velocity over a step.
+    g: f32,
+    /// Process noise `[rr, rv, vv]` over a step.
+    q: [f32; 3],
+}
+
+impl AxisModel {
+    /// The exact discretisation of `r' = v - u`, `v' = -v / τ + w` (PSD `psd`) at `ts_s`.
+    fn new(tau: f32, psd: f32, ts_s: f32) -> Self {
+        let f = libm::expf(-ts_s / tau);
+        let g = tau * (1.0 - f);
+        let q = prediction_noise(tau, psd, ts_s, f);
+        Self { f, g, q }
+    }
+
+    fn predict(&self, a: &mut Axis, u: f32, ts: f32) {
+        let [r, v] = a.x;
+        a.x = [r + self.g * v - ts * u, self.f * v];
+        let [prr, prv, pvv] = a.p;
+        let (f, g) = (self.f, self.g);
+        a.p = [
+            prr + 2.0 * g * prv + g * g * pvv + self.q[0],
+            f * (prv + g * pvv) + self.q[1],
+            f * f * pvv + self.q[2],
+        ];
+    }
+
+    /// Scalar update of the offset with measurement `z`, variance `var`.
+    fn correct(a: &mut Axis, nu: f32, s: f32) {
+        let [prr, prv, pvv] = a.p;
+        let inv = 1.0 / s;
+        let k = [prr * inv, prv * inv];
+        a.x = [a.x[0] + k[0] * nu, a.x[1] + k[1] * nu];
+        a.p = [prr - k[0] * prr, prv - k[0] * prv, pvv - k[1] * prv];
+    }
+}
+
+/// Process noise `[rr, rv, vv]` of the Gauss-Markov model over `h` for PSD `psd`, with
+/// `f = exp(-h / τ)`: the integrals of `τ² (1 - e)²`, `τ (1 - e) e` and `e²`,
+/// `e = exp(-s / τ)`, over `s` in `[0, h]`, times `psd`. In closed form
+/// `rr = psd τ² (h - 2 τ (1 - f) + τ (1 - f²) / 2)`, `rv = psd τ² ((1 - f) - (1 - f²) / 2)`,
+/// `vv = psd τ (1 - f²) / 2`; for `h < 1.5 τ` (every step, and the gates' horizons) the
+/// closed forms lose most of their digits to cancellation in `f32`, so their Taylor series in
+/// `x = h / τ` (to the eleventh power, 0.2 % at `x = 1.5`) are used there.
+fn prediction_noise(tau: f32, psd: f32, h: f32, f: f32) -> [f32; 3] {
+    let x = h / tau;
+    if x >= 1.5 {
+        let f2 = f * f;
+        return [
+            psd * tau * tau * (h - 2.0 * tau * (1.0 - f) + tau * (1.0 - f2) / 2.0),
+            psd * tau * tau * ((1.0 - f) - (1.0 - f2) / 2.0),
+            psd * tau * (1.0 - f2) / 2.0,
+        ];
+    }
+    // Horner in x of the series' coefficients from the lowest power shown.
+    let horner = |c: &[f32]| c.iter().rev().fold(0.0, |acc, &k| acc * x + k);
+    let rr = horner(&[
+        1.0 / 3.0,
+        -1.0 / 4.0,
+        7.0 / 60.0,
+        -1.0 / 24.0,
+        31.0 / 2520.0,
+        -1.0 / 320.0,
+        127.0 / 181_440.0,
+        -17.0 / 120_960.0,
+        73.0 / 2_851_200.0,
+    ]) * x
+        * x
+        * x;
+    let rv = horner(&[
+        1.0 / 2.0,
+        -1.0 / 2.0,
+        7.0 / 24.0,
+        -1.0 / 8.0,
+        31.0 / 720.0,
+        -1.0 / 80.0,
+        127.0 / 40_320.0,
+        -17.0 / 24_192.0,
+        73.0 / 518_400.0,
+        -31.0 / 1_209_600.0,
+    ]) * x
+        * x;
+    let vv = horner(&[
+        1.0,
+        -1.0,
+        2.0 / 3.0,
+        -1.0 / 3.0,
+        2.0 / 15.0,
+        -2.0 / 45.0,
+        4.0 / 315.0,
+        -1.0 / 315.0,
+        2.0 / 2835.0,
+        -2.0 / 14_175.0,
+        4.0 / 155_925.0,
+    ]) * x;
+    let t3 = psd * tau * tau * tau;
+    [t3 * rr, psd * tau * tau * rv, psd * tau * vv]
+}
+
+/// What the estimator needs from its configuration at the control period, derived once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimatorModel {
+    lateral: AxisModel,
+    forward: AxisModel,
+    /// `τ` of the lateral model, s.
+    tau_s: f32,
+    /// `2 / τ`: the PSD per unit stationary velocity variance, 1/s.
+    psd_per_variance: f32,
+    /// Step of the velocity-variance average, `Ts / activity_time_constant_s`.
+    activity_step: f32,
+    /// Step of the offset's average, `Ts / mean_time_constant_s`.
+    mean_step: f32,
+    ts: f32,
+}
+
+impl EstimatorModel {
+    /// Discretises the model of `cfg` at the period `ts_s`.
+    pub fn new(cfg: &EstimatorConfig, ts_s: f32) -> Self {
+        let tau = cfg.drogue_time_constant_s;
+        Self {
+            lateral: AxisModel::new(tau, cfg.drogue_accel_psd_m2ps3, ts_s),
+            forward: AxisModel::new(
+                cfg.drogue_fwd_time_constant_s,
+                cfg.drogue_fwd_accel_psd_m2ps3,
+                ts_s,
+            ),
+            tau_s: tau,
+            psd_per_variance: 2.0 / tau,
+            activity_step: ts_s / cfg.activity_time_constant_s,
+            mean_step: ts_s / cfg.mean_time_constant_s,
+            ts: ts_s,
+        }
+    }
+}
+
+/// Why the estimator restarted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Restart {
+    /// Too many consecutive frames rejected by the innovation gate.
+    Rejections,
+    /// An update produced a non-finite value.
+    NonFinite,
+}
+
+/// What one correction did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Correction {
+    /// The frame was rejected by the innovation gate.
+    pub rejected: bool,
+    /// The filter restarted from the frame.
+    pub restarted: Option<Restart>,
+}
+
+/// A frame as the estimator takes it: the drogue's offset from the tip in tanker axes
+/// (`[right, down, forward]`) and the camera's depth (for the noise model).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TipFrame {
+    /// Drogue centre minus probe tip, `[right, down, forward]`, m.
+    pub drogue_from_tip_m: [f32; 3],
+    /// The camera's depth to the drogue, m.
+    pub camera_depth_m: f32,
+}
+
+/// The drogue estimator (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DrogueEstimator {
+    /// Right, down, forward (the forward axis's offset is the depth).
+    axes: [Axis; 3],
+    /// Average of the estimated drogue velocity's square, right and down, m²/s².
+    activity: [f32; 2],
+    /// Average of the offset, right and down, m.
+    mean_offset: [f32; 2],
+    /// Consecutive rejected frames.
+    rejections: u16,
+    /// The filter holds an estimate (started from a frame).
+    started: bool,
+}
+
+impl DrogueEstimator {
+    /// True once started from a frame (and until [`DrogueEstimator::stop`]).
+    pub fn started(&self) -> bool {
+        self.started
+    }
+
+    /// Forgets the estimate (standby): it reads as zero until the next
+    /// [`DrogueEstimator::start`], which sets every field. (Only the flag is cleared:
+    /// overwriting the whole filter compiled to a `memclr` loop in the step, which the static
+    /// bound of its instructions cannot follow.)
+    pub fn stop(&mut self) {
+        self.started = false;
+    }
+
+    /// Starts from `frame`: offset and depth as measured, the drogue at rest, with the
+    /// configured initial uncertainty, and the activity at the configured PSD's level.
+    pub fn start(&mut self, frame: &TipFrame, cfg: &EstimatorConfig) {
+        self.restart(frame, cfg);
+        self.mean_offset = [frame.drogue_from_tip_m[0], frame.drogue_from_tip_m[1]];
+        // The configured PSD's stationary velocity variance, q τ / 2.
+        self.activity = [cfg.drogue_accel_psd_m2ps3 * cfg.drogue_time_constant_s / 2.0; 2];
+    }
+
+    /// [`DrogueEstimator::start`] keeping the measured activity (a restart after rejections
+    /// is the same air).
+    fn restart(&mut self, frame: &TipFrame, cfg: &EstimatorConfig) {
+        let (r_var, z_var) = noise_variances(frame.camera_depth_m, cfg);
+        let v0 = cfg.initial_velocity_sigma_mps * cfg.initial_velocity_sigma_mps;
+        self.axes = [0, 1, 2].map(|i| Axis {
+            x: [frame.drogue_from_tip_m[i], 0.0],
+            p: [if i < 2 { r_var } else { z_var }, 0.0, v0],
+        });
+        self.rejections = 0;
+        self.started = true;
+    }
+
+    /// Advances the belief by one step with the probe tip's velocity relative to the tanker
+    /// `[right, down, forward]`, m/s (from navigation).
+    #[inline(always)]
+    pub fn predict(&mut self, tip_velocity_mps: [f32; 3], m: &EstimatorModel) {
+        let [right, down, fwd] = &mut self.axes;
+        m.lateral.predict(right, tip_velocity_mps[0], m.ts);
+        m.lateral.predict(down, tip_velocity_mps[1], m.ts);
+        m.forward.predict(fwd, tip_velocity_mps[2], m.ts);
+        for ((a, r), ax) in self
+            .activity
+            .iter_mut()
+            .zip(&mut self.mean_offset)
+            .zip(&self.axes)
+        {
+            *a += m.activity_step * (ax.x[1] * ax.x[1] - *a);
+            *r += m.mean_step * (ax.x[0] - *r);
+        }
+    }
+
+    /// Corrects the belief with a valid frame (after [`DrogueEstimator::predict`]).
+    #[inline(always)]
+    pub fn correct(&mut self, frame: &TipFrame, cfg: &EstimatorConfig) -> Correction {
+        let (r_var, z_var) = noise_variances(frame.camera_depth_m, cfg);
+        let var = [r_var, r_var, z_var];
+        let g2 = cfg.gate_sigmas * cfg.gate_sigmas;
+        // Gate on the three axes together: one outlier frame is one frame.
+        let nu: [f32; 3] = core::array::from_fn(|i| frame.drogue_from_tip_m[i] - self.axes[i].x[0]);
+        let s: [f32; 3] = core::array::from_fn(|i| self.axes[i].p[0] + var[i]);
+        let outside = (0..3).any(|i| nu[i] * nu[i] > g2 * s[i]);
+        if outside {
+            self.rejections = self.rejections.saturating_add(1);
+            let restarted = (self.rejections > cfg.max_rejections).then(|| {
+                self.restart(frame, cfg);
+                Restart::Rejections
+            });
+            return Correction {
+                rejected: true,
+                restarted,
+            };
+        }
+        self.rejections = 0;
+        for (ax, (nu, s)) in self.axes.iter_mut().zip(nu.into_iter().zip(s)) {
+            AxisModel::correct(ax, nu, s);
+        }
+        if !self.is_finite() {
+            self.start(frame, cfg);
+            return Correction {
+                rejected: false,
+                restarted: Some(Restart::NonFinite),
+            };
+        }
+        Correction::default()
+    }
+
+    fn is_finite(&self) -> bool {
+        self.axes
+            .iter()
+            .all(|ax| ax.x.iter().chain(&ax.p).all(|v| v.is_finite()))
+    }
+
+    /// The belief now.
+    pub fn estimate(&self) -> DrogueEstimate {
+        if !self.started {
+            return DrogueEstimate::default();
+        }
+        let [r, d, z] = &self.axes;
+        DrogueEstimate {
+            offset_m: [r.x[0], d.x[0]],
+            mean_offset_m: self.mean_offset,
+            drogue_velocity_mps: [r.x[1], d.x[1], z.x[1]],
+            depth_m: z.x[0],
+        }
+    }
+
+    /// Variance of the offset estimate, `[right, down]`, m².
+    pub fn offset_variance_m2(&self) -> [f32; 2] {
+        [self.axes[0].p[0], self.axes[1].p[0]]
+    }
+
+    /// Variance of the depth estimate, m².
+    pub fn depth_variance_m2(&self) -> f32 {
+        self.axes[2].p[0]
+    }
+
+    /// The PSD the air drives the drogue with, as measured, `[right, down]`, m²/s³.
+    pub fn measured_accel_psd_m2ps3(&self, m: &EstimatorModel) -> [f32; 2] {
+        self.activity.map(|a| m.psd_per_variance * a)
+    }
+
+    /// The drogue's expected velocity `horizon_s` ahead, `[right, down]`, m/s (its velocity
+    /// now, decayed over the horizon as the model says).
+    #[inline(always)]
+    pub fn drogue_velocity_ahead(&self, horizon_s: f32, m: &EstimatorModel) -> [f32; 2] {
+        let f = libm::expf(-horizon_s / m.tau_s);
+        [self.axes[0].x[1] * f, self.axes[1].x[1] * f]
+    }
+
+    /// The offset `horizon_s` ahead if the probe tip kept the velocity `tip_velocity_mps`
+    /// (`[right, down]`) and nothing were measured, with its variance: the estimate's own,
+    /// carried over the horizon, plus the drogue's unpredictable motion over it at the
+    /// measured PSD. One exponential.
+    #[inline(always)]
+    pub fn predict_offset(
+        &self,
+        horizon_s: f32,
+        tip_velocity_mps: [f32; 2],
+        m: &EstimatorModel,
+    ) -> [AxisPrediction; 2] {
+        let (h, tau) = (horizon_s, m.tau_s);
+        let f = libm::expf(-h / tau);
+        let g = tau * (1.0 - f);
+        [0, 1].map(|i| {
+            let ax = &self.axes[i];
+            let [prr, prv, pvv] = ax.p;
+            let q = prediction_noise(tau, m.psd_per_variance * self.activity[i], h, f);
+            AxisPrediction {
+                mean_m: ax.x[0] + g * ax.x[1] - h * tip_velocity_mps[i],
+                variance_m2: prr + 2.0 * g * prv + g * g * pvv + q[0],
+            }
+        })
+    }
+}
+
+/// Variances of a frame's lateral offset and depth at camera depth `z`, m².
+#[inline(always)]
+fn noise_variances(z: f32, cfg: &EstimatorConfig) -> (f32, f32) {
+    let r = cfg.offset_noise_m + cfg.offset_noise_per_m * z;
+    let d = cfg.depth_noise_m + cfg.depth_noise_per_m2 * z * z;
+    (r * r, d * d)
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+
+    const TS: f32 = 0.02;
+
+    fn tip_camera() -> TipGeometry {
+        let cam = CameraMount {
+            position_body_m: [6.06, 0.54, -0.86],
+            pitch_down_rad: 0.11,
+        };
+        TipGeometry::new(&cam, [6.06, 0.54, -0.86], 0.11)
+    }
+
+    #[test]
+    fn a_tip_camera_at_trim_sees_the_offset_as_image_point_times_depth() {
+        let g = tip_camera();
+        assert_eq!(g.tip_from_camera_m(), [0.0, 0.0, 0.0]);
+        let r = g.drogue_from_tip([0.25, -0.1], 4.0, [0.0; 3], g.tip_image());
+        assert_eq!(r, [1.0, -0.4, 4.0]);
+    }
+
+    #[test]
+    fn a_set_back_camera_removes_the_tip_offset() {
+        // Camera 2.66 m behind the tip and 0.24 m above it: the tip is 2.66 m ahead and
+        // 0.24 m below in the camera's trim-level axes.
+        let theta = 0.11_f32;
+        let cam = CameraMount {
+            position_body_m: [3.4, 0.54, -1.10],
+            pitch_down_rad: theta,
+        };
+        let tip = [6.06, 0.54, -0.86];
+        let g = TipGeometry::new(&cam, tip, theta);
+        let t = g.tip_from_camera_m();
+        // Body offset (2.66, 0, 0.24) rotated by the trim pitch into level axes.
+        let (s, c) = (libm::sinf(theta), libm::cosf(theta));
+        assert!((t[2] - (2.66 * c + 0.24 * s)).abs() < 1e-5, "{t:?}");
+        assert!((t[1] - (-2.66 * s + 0.24 * c)).abs() < 1e-5, "{t:?}");
+        assert!(t[0].abs() < 1e-6);
+        // A drogue exactly ahead of the tip, 1 m beyond it: offset zero, depth 1 m.
+        let z = t[2] + 1.0;
+        let r = g.drogue_from_tip([t[0] / z, t[1] / z], z, [0.0; 3], g.tip_image());
+        assert!(r[0].abs() < 1e-6 && r[1].abs() < 1e-6 && (r[2] - 1.0).abs() < 1e-5);
+        // A camera believed 5 cm further right than it is sees the drogue (ahead of the tip)
+        // and the tip 5 cm further left than the geometry says: with the tip's measured image
+        // point the offset is still zero (the belief only scales the tip's depth); with the
+        // geometry's it is off by the 5 cm.
+        let seen_tip = [(t[0] - 0.05) / t[2], t[1] / t[2]];
+        let seen_drogue = [(t[0] - 0.05) / z, t[1] / z];
+        let measured = g.drogue_from_tip(seen_drogue, z, [0.0; 3], seen_tip);
+        let believed = g.drogue_from_tip(seen_drogue, z, [0.0; 3], g.tip_image());
+        assert!(measured[0].abs() < 1e-5, "{measured:?}");
+        assert!((believed[0] + 0.05).abs() < 1e-5, "{believed:?}");
+    }
+
+    #[test]
+    fn de_rotation_removes_the_attitudes_effect_on_the_image() {
+        // A drogue 5 m straight ahead of a tip camera; the nose pitched up 2 degrees puts it
+        // below the boresight, yawed right 2 degrees to its left. De-rotated: still ahead.
+        let g = tip_camera();
+        let (a, z) = (2f32.to_radians(), 5.0_f32);
+        let tip = g.tip_image();
+        let pitched = g.drogue_from_tip([0.0, libm::tanf(a)], z, [0.0, a, 0.0], tip);
+        assert!(pitched[1].abs() < 2e-3 * z, "{pitched:?}");
+        let yawed = g.drogue_from_tip([-libm::tanf(a), 0.0], z, [0.0, 0.0, a], tip);
+        assert!(yawed[0].abs() < 2e-3 * z, "{yawed:?}");
+        // Rolled right 2 degrees (about the body axis, pitched up by the trim pitch): a
+        // drogue 1 m to the right appears above and right; de-rotated, right and level.
+        let roll = g.drogue_from_tip(
+            [1.0 * libm::cosf(a) / z, -libm::sinf(a) / z],
+            z,
+            [a, 0.0, 0.0],
+            tip,
+        );
+        assert!(
+            (roll[0] - 1.0).abs() < 0.02 && roll[1].abs() < 0.02,
+            "{roll:?}"
+        );
+    }
+
+    #[test]
+    fn the_tip_sight_averages_near_the_geometry_and_rejects_the_rest() {
+        let cam = CameraMount {
+            position_body_m: [3.4, 0.54, -1.10],
+            pitch_down_rad: 0.11,
+        };
+        let g = TipGeometry::new(&cam, [6.06, 0.54, -0.86], 0.11);
+        let cfg = EstimatorConfig::default();
+        let mut s = TipSight::new(&g);
+        assert_eq!(s.image(), g.tip_image());
+        assert_eq!(s.observe(None, &cfg), TipSighting::None);
+        let off = [g.tip_image()[0] + 0.02, g.tip_image()[1]];
+        for _ in 0..200 {
+            assert_eq!(s.observe(Some(off), &cfg), TipSighting::Used);
+        }
+        assert!((s.image()[0] - off[0]).abs() < 1e-4, "{:?}", s.image());
+        let far = [g.tip_image()[0] + 0.07, g.tip_image()[1]];
+        assert_eq!(s.observe(Some(far), &cfg), TipSighting::Rejected);
+        assert_eq!(
+            s.observe(Some([f32::NAN, 0.0]), &cfg),
+            TipSighting::Rejected
+        );
+        assert!((s.image()[0] - off[0]).abs() < 1e-4, "rejections leave it");
+    }
+
+    fn model() -> (EstimatorConfig, EstimatorModel) {
+        let cfg = EstimatorConfig::default();
+        (cfg, EstimatorModel::new(&cfg, TS))
+    }
+
+    #[test]
+    fn the_discretisation_is_the_processes_own() {
+        // The transition over n steps equals the one over n Ts; the process noise over n
+        // steps (propagated) equals the closed form over n Ts.
+        let (cfg, m) = model();
+        let tau = cfg.drogue_time_constant_s;
+        let mut a = Axis {
+            x: [0.1, 0.3],
+            p: [0.0; 3],
+        };
+        let n = 50;
+        for _ in 0..n {
+            m.lateral.predict(&mut a, 0.0, TS);
+        }
+        let h = n as f32 * TS;
+        let f = libm::expf(-h / tau);
+        assert!((a.x[1] - 0.3 * f).abs() < 1e-6, "{a:?}");
+        assert!(
+            (a.x[0] - (0.1 + 0.3 * tau * (1.0 - f))).abs() < 1e-5,
+            "{a:?}"
+        );
+        let q = prediction_noise(tau, cfg.drogue_accel_psd_m2ps3, h, f);
+        for (got, want) in a.p.iter().zip(q) {
+            assert!(
+                (got - want).abs() < 1e-4 * want.abs().max(1e-6),
+                "{a:?} vs {q:?}"
+            );
+        }
+        // Stationary velocity variance: q τ / 2.
+        let long = prediction_noise(tau, 1.0, 1000.0, 0.0);
+        assert!((long[2] - tau / 2.0).abs() < 1e-6);
+        // Short horizons: the double integrator's q h³ / 3, q h² / 2, q h.
+        let short = prediction_noise(tau, 1.0, 0.01, libm::expf(-0.01 / tau));
+        assert!((short[0] / (1e-6 / 3.0) - 1.0).abs() < 0.01, "{short:?}");
+        assert!((short[1] / (1e-4 / 2.0) - 1.0).abs() < 0.01, "{short:?}");
+        assert!((short[2] / 1e-2 - 1.0).abs() < 0.01, "{short:?}");
+        // The series and the closed form agree where they meet (x = 1.5), computed in f64.
+        for x in [0.3_f64, 1.0, 1.49] {
+            let t = f64::from(tau);
+            let h = x * t;
+            let f = (-x).exp();
+            let exact = [
+                t * t * (h - 2.0 * t * (1.0 - f) + t * (1.0 - f * f) / 2.0),
+                t * t * ((1.0 - f) - (1.0 - f * f) / 2.0),
+                t * (1.0 - f * f) / 2.0,
+            ];
+            let got = prediction_noise(tau, 1.0, h as f32, f as f32);
+            for (g, e) in got.iter().zip(exact) {
+                assert!(
+                    (f64::from(*g) / e - 1.0).abs() < 3e-3,
+                    "x {x}: {got:?} vs {exact:?}"
+                );
+            }
+        }
+    }
+
+    /// A drogue swinging at the hose's 0.25 Hz, seen by a fixed tip: the filter converges on
+    /// its offset and velocity.
+    #[test]
+    fn the_filter_tracks_a_swinging_drogue() {
+        let (cfg, m) = model();
+        let w = 1.6_f32;
+        let truth = |t: f32| (0.3 * libm::sinf(w * t), 0.3 * w * libm::cosf(w * t));
+        let frame = |t: f32| TipFrame {
+            drogue_from_tip_m: [truth(t).0, -truth(t).0, 3.0],
+            camera_depth_m: 3.0,
+        };
+        let mut e = DrogueEstimator::default();
+        e.start(&frame(0.0), &cfg);
+        let mut worst = (0.0_f32, 0.0_f32);
+        for k in 1..500 {
+            let t = k as f32 * TS;
+            e.predict([0.0; 3], &m);
+            let c = e.correct(&frame(t), &cfg);
+            assert_eq!(c, Correction::default(), "step {k}");
+            if t > 3.0 {
+                let est = e.estimate();
+                let (r, v) = truth(t);
+                worst.0 = worst.0.max((est.offset_m[0] - r).abs());
+                worst.1 = worst.1.max((est.drogue_velocity_mps[0] - v).abs());
+                assert!((est.offset_m[1] + r).abs() < 0.01);
+            }
+        }
+        assert!(
+            worst.0 < 0.005 && worst.1 < 0.08,
+            "worst offset, velocity error {worst:?}"
+        );
+        // The measured activity is the swing's: velocity amplitude 0.48 m/s, mean square
+        // 0.115 m²/s² (within the average's ripple over a 4 s time constant).
+        let q = e.measured_accel_psd_m2ps3(&m)[0];
+        let want = 2.0 / cfg.drogue_time_constant_s * 0.5 * (0.3 * w) * (0.3 * w);
+        assert!((q / want - 1.0).abs() < 0.3, "{q} vs {want}");
+        // Half a second ahead the velocity is expected to have decayed by exp(-0.5 / τ).
+        let now = e.estimate().drogue_velocity_mps[0];
+        let ahead = e.drogue_velocity_ahead(0.5, &m)[0];
+        assert!((ahead - now * libm::expf(-0.5 / cfg.drogue_time_constant_s)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_tips_own_motion_is_not_taken_for_the_drogues() {
+        // The drogue is still; the tip moves right at 0.5 m/s, so the offset shrinks. The
+        // filter, told the tip's velocity, finds the drogue at rest.
+        let (cfg, m) = model();
+        let mut e = DrogueEstimator::default();
+        let frame = |t: f32| TipFrame {
+            drogue_from_tip_m: [1.0 - 0.5 * t, 0.0, 4.0],
+            camera_depth_m: 4.0,
+        };
+        e.start(&frame(0.0), &cfg);
+        for k in 1..200 {
+            e.predict([0.5, 0.0, 0.0], &m);
+            e.correct(&frame(k as f32 * TS), &cfg);
+        }
+        let est = e.estimate();
+        assert!(est.drogue_velocity_mps[0].abs() < 0.02, "{est:?}");
+        assert!(
+            (est.offset_m[0] - (1.0 - 0.5 * 199.0 * TS)).abs() < 0.005,
+            "{est:?}"
+        );
+        // And the prediction: the tip keeps closing the offset at 0.5 m/s.
+        let p = e.predict_offset(0.4, [0.5, 0.0], &m);
+        assert!(
+            (p[0].mean_m - (est.offset_m[0] - 0.2)).abs() < 0.01,
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn an_outlier_is_rejected_and_a_real_jump_restarts_the_filter() {
+        let (cfg, m) = model();
+        let mut e = DrogueEstimator::default();
+        let at = |r: f32| TipFrame {
+            drogue_from_tip_m: [r, 0.0, 3.0],
+            camera_depth_m: 3.0,
+        };
+        e.start(&at(0.1), &cfg);
+        for _ in 0..100 {
+            e.predict([0.0; 3], &m);
+            e.correct(&at(0.1), &cfg);
+        }
+        e.predict([0.0; 3], &m);
+        let c = e.correct(&at(2.0), &cfg);
+        assert_eq!((c.rejected, c.restarted), (true, None));
+        assert!(
+            (e.estimate().offset_m[0] - 0.1).abs() < 0.01,
+            "outlier ignored"
+        );
+        // The first jump was rejected; so are the next ones up to the limit...
+        for k in 1..cfg.max_rejections {
+            e.predict([0.0; 3], &m);
+            let c = e.correct(&at(2.0), &cfg);
+            assert!(c.rejected && c.restarted.is_none(), "{k}");
+        }
+        // ... and the one after it restarts the filter there.
+        e.predict([0.0; 3], &m);
+        let c = e.correct(&at(2.0), &cfg);
+        assert_eq!(c.restarted, Some(Restart::Rejections));
+        assert_eq!(e.estimate().offset_m[0], 2.0);
+    }
+
+    #[test]
+    fn without_frames_the_belief_coasts_and_its_uncertainty_grows() {
+        let (cfg, m) = model();
+        let mut e = DrogueEstimator::default();
+        e.start(
+            &TipFrame {
+                drogue_from_tip_m: [0.2, 0.0, 1.0],
+                camera_depth_m: 1.0,
+            },
+            &cfg,
+        );
+        let v0 = e.offset_variance_m2()[0];
+        let z0 = e.depth_variance_m2();
+        // Still air: the measured activity decays from the configured level toward zero.
+        let q0 = e.measured_accel_psd_m2ps3(&m)[0];
+        // Closing at 1 m/s for 0.5 s: depth dead-reckons to 0.5 m.
+        for _ in 0..25 {
+            e.predict([0.0, 0.0, 1.0], &m);
+        }
+        let est = e.estimate();
+        assert!((est.depth_m - 0.5).abs() < 1e-4, "{est:?}");
+        assert!((est.closing_mps(1.0) - 1.0).abs() < 1e-6);
+        assert!(e.offset_variance_m2()[0] > v0 && e.depth_variance_m2() > z0);
+        let q = e.measured_accel_psd_m2ps3(&m)[0];
+        assert!(q < q0 * 0.9, "{q} vs {q0}");
+    }
+}

@@ -1,0 +1,259 @@
+//! The refuelling procedure: what the receiver flies in each of its modes, and the numbers
+//! its mode logic decides with.
+//!
+//! Place in the data flow: after the drogue estimator ([`crate::estimator`]), in place of
+//! the paper's outer loop when [`Procedure::Refuelling`] is configured. The paper's
+//! procedure ([`Procedure::Paper`]: approach, blind terminal phase, docked or breakaway) and
+//! its law ([`crate::outer::ibvs`]) stay as they are; this is what goes beyond it, as
+//! receivers fly it (`docs/conventions.md`, "The refuelling procedure"):
+//!
+//! ```text
+//! standby ─engage─► pre-contact ──stable for the dwell──► contact approach ──go──► capture ──contact──► docked
+//!                      ▲  (station behind the drogue)       │ (close at a stated speed)   │ (commit: camera
+//!                      │                                    │                             │  blind if at the tip)
+//!                      └───────── missed approach ◄── no-go ┴─────────────── miss ────────┘
+//!                                 (back off, descend, return to the station; next attempt)
+//! faults (navigation or measurement lost, overspeed, abort), attempts or time used up ─► breakaway (latched)
+//! ```
+//!
+//! The law, in every engaged mode of the procedure, acts on the estimator's belief:
+//! lateral and vertical `v = v̂_drogue(t + lead) + clamp(k r̂, ±max_correction)` (the
+//! drogue's velocity predicted a lead time ahead, which covers the inner loops' lag, plus a
+//! proportional correction of the offset `r̂` of the drogue from the probe tip, limited in
+//! speed: an image-based law, since `r̂` is the image point times depth, set back to the tip
+//! and filtered); forward: a depth-hold at the
+//! pre-contact station, a constant closing speed in the contact approach and the capture,
+//! a back-off in the missed approach.
+//!
+//! Invariant: the functions here are pure; the outputs are finite and inside the velocity
+//! limits for finite inputs (saturated).
+
+use serde::{Deserialize, Serialize};
+
+use crate::estimator::DrogueEstimate;
+use crate::frames::VelocityRe;
+use crate::num::{clamp_sym, max_to, min_to};
+use crate::outer::VelocityLimits;
+
+/// Which procedure the controller flies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(rename_all = "lowercase")]
+pub enum Procedure {
+    /// The paper's single shot: approach on the outer law, blind terminal phase, docked, or a
+    /// latched breakaway on any miss (`docs/paper.md`).
+    Paper,
+    /// The refuelling procedure of this module: pre-contact, contact approach, go/no-go,
+    /// capture, docked; missed approach and retry; breakaway for faults and the end of the
+    /// sortie.
+    #[default]
+    Refuelling,
+}
+
+/// Parameters of the refuelling procedure (defaults: our choices, each measured with the
+/// campaigns of `docs/scenarios.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// Scenario files name only what they change; an unknown key is an error that names it.
+#[serde(default, deny_unknown_fields)]
+pub struct RefuellingConfig {
+    /// Pre-contact station: probe tip to drogue plane, m. Default 3 m (about 10 ft: the
+    /// receiver stabilises a few feet behind the basket before it is cleared to contact).
+    pub station_depth_m: f32,
+    /// Gain of the pre-contact depth hold, 1/s.
+    pub station_gain_per_s: f32,
+    /// Largest closing or opening speed of the depth hold, m/s.
+    pub station_max_speed_mps: f32,
+    /// Stable at the station: radial offset of the drogue's mean position (its swing
+    /// averaged, [`crate::estimator::DrogueEstimate::mean_offset_m`]) from the probe tip at
+    /// most this, m.
+    pub station_offset_tol_m: f32,
+    /// Stable: depth within this of the station depth, m.
+    pub station_depth_tol_m: f32,
+    /// Stable: the drogue's estimated speed (right and down, radial) at most this, m/s.
+    pub station_drogue_speed_tol_mps: f32,
+    /// Stable: the probe tip's lateral speed relative to the tanker (radial) at most this:
+    /// the receiver is not manoeuvring, m/s.
+    pub station_relative_speed_tol_mps: f32,
+    /// Stable for this long before the contact approach starts, s, counted in valid frames
+    /// (a lost frame neither counts nor restarts the dwell).
+    pub station_dwell_s: f32,
+    /// Pre-contact: the estimated depth falling more than this inside the station (before
+    /// the approach is cleared) breaks away (`StationOverrun`), m. The station's depth hold
+    /// closes at most `station_max_speed_mps`; a receiver that runs through its station
+    /// cannot slow down (a throttle fault, measured: a stuck throttle passed the drogue
+    /// plane 1.5 m off the drogue, still pre-contact), and nobody cleared it to close.
+    /// Default 1 m (the breakaway then starts 2 m out). Must leave the station outside the
+    /// commit depth: `station_depth_m - station_overrun_m > commit_depth_m`.
+    pub station_overrun_m: f32,
+    /// Cartesian gain of the lateral and vertical tracking law, 1/s: well below the inner
+    /// loops' bandwidth (their lateral velocity step rises in about 1.2 s).
+    pub track_gain_per_s: f32,
+    /// Largest lateral and vertical correction speed of the tracking law (beside the
+    /// feed-forward of the drogue's velocity), m/s: a large offset is closed at this speed.
+    pub max_correction_mps: f32,
+    /// Largest change of the lateral and vertical desired velocity, m/s² (the forward
+    /// axis slews at `velocity_limits.max_accel_mps2`): fast enough to follow the drogue's
+    /// swing (its acceleration reaches about 0.6 m/s² RMS in the strongest campaign air).
+    pub track_accel_mps2: f32,
+    /// How far ahead the drogue's velocity is predicted for the feed-forward, s (the inner
+    /// loops' lag), at most 5 s.
+    pub feedforward_lead_s: f32,
+    /// Fraction of the drogue's estimated velocity fed forward, 0..=1.
+    pub feedforward_gain: f32,
+    /// Closing speed of the contact approach and the capture, relative to the drogue, m/s:
+    /// inside the 0.5..2.6 m/s (1 to 5 kt) band that opens the coupling.
+    pub contact_speed_mps: f32,
+    /// In the contact approach, a drogue offset beyond this (radial) is a no-go at once, m.
+    pub abort_offset_m: f32,
+    /// Depth at which the receiver commits: the go/no-go gate, and the start of the capture
+    /// phase (the tip camera goes blind inside about 0.7 m), m.
+    pub commit_depth_m: f32,
+    /// Go: the predicted radial offset at the drogue plane plus `gate_sigmas` standard
+    /// deviations is at most this, m.
+    pub gate_radius_m: f32,
+    /// Standard deviations of the prediction added to its mean by the gates.
+    pub gate_sigmas: f32,
+    /// In the capture, on every valid frame: the same prediction beyond this is a late
+    /// no-go, m (looser than the gate: the capture keeps correcting).
+    pub late_gate_radius_m: f32,
+    /// Longest prediction horizon of the gates, s (at most 1.5 times the estimator's drogue
+    /// time constant, where its variance series is accurate).
+    pub gate_max_horizon_s: f32,
+    /// Longest capture phase, s.
+    pub capture_timeout_s: f32,
+    /// The capture's lateral and vertical gain is `1 / time to go`, the time to go taken
+    /// as at least this (the inner loops' lag: a shorter one would only excite them), s.
+    pub capture_min_time_to_go_s: f32,
+    /// Estimated depth below minus this in the capture: the probe passed the plane, a miss, m.
+    pub overshoot_m: f32,
+    /// Missed approach: speed aft relative to the drogue, m/s.
+    pub missed_aft_mps: f32,
+    /// Missed approach: speed down while clearing, m/s.
+    pub missed_down_mps: f32,
+    /// Missed approach: how long it backs off and descends before returning to the station, s.
+    pub missed_clear_s: f32,
+    /// Missed approach: largest change of the desired velocity, m/s², each axis. Default
+    /// 1 m/s²: it stops a 1 m/s approach in about a metre. The breakaway's 2 m/s² with its
+    /// 1.5 m/s aft and 1 m/s down drove the throttle to idle and the elevator to its stops
+    /// and lost the receiver in the strongest campaign air (measured).
+    pub missed_accel_mps2: f32,
+    /// Missed approach: how long the measurement may be invalid (the drogue out of view
+    /// while clearing), s; longer is a breakaway (`MeasurementLost`).
+    pub reacquire_limit_s: f32,
+    /// Approaches allowed in one sortie; a no-go after the last is the end of the sortie
+    /// (breakaway, `AttemptsExhausted`).
+    pub max_attempts: u8,
+    /// Time from engage after which no new approach starts and the sortie ends (breakaway,
+    /// `SortieTimeout`), s.
+    pub sortie_budget_s: f32,
+}
+
+impl Default for RefuellingConfig {
+    fn default() -> Self {
+        Self {
+            station_depth_m: 3.0,
+            station_gain_per_s: 0.4,
+            station_max_speed_mps: 1.5,
+            station_offset_tol_m: 0.15,
+            station_depth_tol_m: 0.3,
+            station_drogue_speed_tol_mps: 0.5,
+            station_relative_speed_tol_mps: 0.3,
+            station_dwell_s: 1.0,
+            station_overrun_m: 1.0,
+            track_gain_per_s: 0.5,
+            max_correction_mps: 0.5,
+            track_accel_mps2: 1.0,
+            feedforward_lead_s: 0.4,
+            feedforward_gain: 1.0,
+            contact_speed_mps: 1.0,
+            abort_offset_m: 0.6,
+            commit_depth_m: 1.0,
+            gate_radius_m: 0.45,
+            gate_sigmas: 2.0,
+            late_gate_radius_m: 0.45,
+            gate_max_horizon_s: 1.2,
+            capture_timeout_s: 3.0,
+            capture_min_time_to_go_s: 0.4,
+            overshoot_m: 0.3,
+            missed_aft_mps: 1.0,
+            missed_down_mps: 0.5,
+            missed_clear_s: 2.0,
+            missed_accel_mps2: 1.0,
+            reacquire_limit_s: 3.0,
+            max_attempts: 4,
+            sortie_budget_s: 150.0,
+        }
+    }
+}
+
+/// What the forward axis does in a mode of the procedure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Forward {
+    /// Hold the pre-contact station's depth.
+    Station,
+    /// Close at the contact speed.
+    Contact,
+    /// Close at the contact speed and steer the offset out by contact: the lateral and
+    /// vertical gain rises to `1 / time to go` (at most `1 / capture_min_time_to_go_s`).
+    Capture,
+    /// Back off (and descend) at the missed approach's speeds.
+    Clear,
+}
+
+/// The desired velocity of the probe tip relative to the tanker (`re` axes) for the
+/// estimate `e`, the drogue's velocity predicted `feedforward_lead_s` ahead `v_ahead`
+/// (`[right, down]`) and the forward mode `fwd`, saturated to the velocity limits.
+#[inline(always)]
+pub fn desired_velocity(
+    e: &DrogueEstimate,
+    v_ahead_mps: [f32; 2],
+    fwd: Forward,
+    cfg: &RefuellingConfig,
+    lim: &VelocityLimits,
+) -> VelocityRe {
+    let k = match fwd {
+        // Time to go at the contact speed; the gain that removes the offset by contact.
+        Forward::Capture => {
+            let t_go = max_to(e.depth_m, 0.0) / cfg.contact_speed_mps;
+            max_to(
+                cfg.track_gain_per_s,
+                1.0 / max_to(t_go, cfg.capture_min_time_to_go_s),
+            )
+        }
+        _ => cfg.track_gain_per_s,
+    };
+    // Relative to the drogue: its own forward velocity is added to the tip's command.
+    let drogue_fwd = e.drogue_velocity_mps[2];
+    let (fwd_mps, down_bias) = match fwd {
+        Forward::Station => {
+            let v = cfg.station_gain_per_s * (e.depth_m - cfg.station_depth_m);
+            (clamp_sym(v, cfg.station_max_speed_mps), 0.0)
+        }
+        Forward::Contact | Forward::Capture => (cfg.contact_speed_mps, 0.0),
+        Forward::Clear => (-cfg.missed_aft_mps, cfg.missed_down_mps),
+    };
+    // Holding the station or clearing, the receiver follows the drogue's mean position (its
+    // swing averaged out) without its velocity: chasing the swing of a drogue in strong air
+    // drove the elevator into its stops and the receiver out of control (measured, the
+    // strongest campaign). Closing on it, it follows the drogue itself.
+    let (offset, ff) = match fwd {
+        Forward::Station | Forward::Clear => (e.mean_offset_m, 0.0),
+        Forward::Contact | Forward::Capture => (e.offset_m, cfg.feedforward_gain),
+    };
+    let c = cfg.max_correction_mps;
+    VelocityRe {
+        x_right_mps: clamp_sym(
+            ff * v_ahead_mps[0] + clamp_sym(k * offset[0], c),
+            lim.max_lateral_mps,
+        ),
+        y_down_mps: clamp_sym(
+            ff * v_ahead_mps[1] + clamp_sym(k * offset[1], c) + down_bias,
+            lim.max_vertical_mps,
+        ),
+        z_fwd_mps: min_to(
+            max_to(drogue_fwd + fwd_mps, -lim.max_closing_mps),
+            lim.max_closing_mps,
+        ),
+    }
+}
