@@ -1,5 +1,5 @@
 //! The docking as an animated GIF: a chase view of receiver, probe, hose and drogue (side and
-//! top, tanker frame) beside the camera's own image (LED centroids, fitted circle, convergence
+//! top, tanker frame) beside the camera's own image (LED centroids, fitted circle, aim
 //! point, image error), with time, mode, depth and commands written out.
 //!
 //! Frames are drawn with plotters into an RGB buffer (axes, titles and the camera frame once,
@@ -546,10 +546,10 @@ fn draw_camera(
     c: &CameraPanel,
     s: &Sample,
     r: &StepRecord,
-    aim: [f32; 2],
+    rec: &Recording,
 ) -> Result<(), String> {
     let m = &s.measurement;
-    let (ax, ay) = (f64::from(aim[0]), f64::from(aim[1]));
+    let [ax, ay] = rec.aim(f64::from(m.depth_m));
     let (au, av) = c.map_normalised(ax, ay);
     let cross = |(x, y): (i32, i32), d: i32, color: RGBColor| -> Result<(), String> {
         area.draw(&PathElement::new(
@@ -664,7 +664,6 @@ fn status_names(flags: StatusFlags) -> Vec<&'static str> {
 pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<String> {
     let (s, r) = (&run.samples[k], &rec.steps[k]);
     let (o, m) = (&s.output, &s.measurement);
-    let [cx, cy] = rec.convergence_point;
     let deg = |v: f32| f64::from(v).to_degrees();
     let d = &s.drogue_from_tip_m;
     // Place for the retry procedure's attempt number and the drogue estimator's state:
@@ -672,6 +671,7 @@ pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<St
     let mut lines = vec![
         format!("t {:5.2} s    mode {:?}", s.time_s, o.mode),
         if m.tracked {
+            let [ax, ay] = rec.aim(f64::from(m.depth_m));
             let leds = r
                 .world
                 .led
@@ -682,8 +682,8 @@ pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<St
             format!(
                 "depth {:.2} m, error x {:+.3} y {:+.3}{leds}",
                 m.depth_m,
-                m.image_x - cx,
-                m.image_y - cy
+                f64::from(m.image_x) - ax,
+                f64::from(m.image_y) - ay
             )
         } else {
             "camera: not tracked".to_string()
@@ -778,13 +778,7 @@ fn render(
     buffer.copy_from_slice(&l.background);
     let root = BitMapBackend::with_buffer(buffer, (WIDTH_PX, HEIGHT_PX)).into_drawing_area();
     draw_views(&root, l, run, rec, k)?;
-    draw_camera(
-        &root,
-        &l.camera,
-        &run.samples[k],
-        &rec.steps[k],
-        rec.convergence_point,
-    )?;
+    draw_camera(&root, &l.camera, &run.samples[k], &rec.steps[k], rec)?;
     draw_text(&root, l.text, &overlay_lines(run, rec, k, last))?;
     root.present().map_err(dbg)
 }

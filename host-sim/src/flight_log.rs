@@ -13,7 +13,7 @@
 //! | `/truth/probe_tip` | probe tip, tanker frame; its velocity relative to the tanker; drogue minus tip |
 //! | `/truth/drogue` | drogue centre and axis, tanker frame |
 //! | `/truth/hose` | hose nodes from the exit to the drogue, tanker frame (fixed drogue: none) |
-//! | `/camera/measurement` | the camera frame the flight computer was given, and its image error |
+//! | `/camera/measurement` | the camera frame the flight computer was given (the probe tip's marker included), the aim and the image error from it |
 //! | `/camera/image` | LED camera only: the frame's LED centroids, the fitted circle, the true drogue image point |
 //! | `/nav/sample` | the navigation sample the flight computer was given |
 //! | `/controller/input` | the rest of its input: probe contact, mode request |
@@ -23,10 +23,12 @@
 //!
 //! Schemas are inferred from the messages themselves (every field any message of the channel
 //! has, with the JSON type it takes), so a field added to a serialised type is in the schema
-//! without an edit here. Fields whose value is none (an `Option`'s `None`, a NaN) are left out
-//! of the message rather than written as `null`, and each field has one type: Foxglove's JSON
-//! Schema reader takes no nullable or union types. A metadata record `run` holds the scenario,
-//! seed, flight computer and outcome.
+//! without an edit here. Fields whose value is none (an `Option`'s `None`, a NaN or an
+//! infinity, which JSON cannot hold) are left out of the message rather than written as
+//! `null`, and each field has one type: Foxglove's JSON Schema reader takes no nullable or
+//! union types. [`controller_output`] reads an output message back (the gate's infinite
+//! predicted miss restored). A metadata record `run` holds the scenario, seed, flight computer
+//! and outcome.
 //!
 //! Invariants: the file is a pure function of the recording and the run (no wall-clock time,
 //! no compression), so the same run gives the same bytes; every channel has exactly one
@@ -41,6 +43,8 @@ use std::path::Path;
 use nalgebra::{Vector2, Vector3};
 use serde::Serialize;
 use serde_json::{Value, json};
+
+use ibvs_core::controller::ControllerOutput;
 
 use crate::linearize::design_coordinates;
 use crate::output::OutputError;
@@ -133,15 +137,18 @@ fn hose(_: &Sample, r: &StepRecord, _: &Recording) -> Option<Value> {
 
 fn measurement(s: &Sample, _: &StepRecord, rec: &Recording) -> Option<Value> {
     let m = &s.measurement;
-    let [cx, cy] = rec.convergence_point;
+    let [ax, ay] = rec.aim(f64::from(m.depth_m));
     Some(json!({
         "seq": m.seq,
         "tracked": m.tracked,
         "image_x": m.image_x,
         "image_y": m.image_y,
         "depth_m": m.depth_m,
-        "image_error_x": m.image_x - cx,
-        "image_error_y": m.image_y - cy,
+        "probe_tip": m.probe_tip.map(|[x, y]| json!({ "x": x, "y": y })),
+        "aim_x": ax,
+        "aim_y": ay,
+        "image_error_x": f64::from(m.image_x) - ax,
+        "image_error_y": f64::from(m.image_y) - ay,
     }))
 }
 
@@ -185,6 +192,24 @@ fn input(_: &Sample, r: &StepRecord, _: &Recording) -> Option<Value> {
 
 fn output(s: &Sample, _: &StepRecord, _: &Recording) -> Option<Value> {
     to_value(s.output)
+}
+
+/// A `/controller/output` message read back into the [`ControllerOutput`] it was written
+/// from. JSON has no infinity: serde writes an infinite float as `null`, which the log leaves
+/// out, and the one field of the output that is infinite by design, `predicted_miss_m` (no
+/// prediction), is restored as such when it is missing.
+pub fn controller_output(message: &Value) -> serde_json::Result<ControllerOutput> {
+    let missing = message.get("predicted_miss_m").is_none();
+    let mut v = message.clone();
+    if let (true, Some(obj)) = (missing, v.as_object_mut()) {
+        // A placeholder JSON can hold, replaced below.
+        obj.insert("predicted_miss_m".into(), json!(0.0));
+    }
+    let mut o: ControllerOutput = serde_json::from_value(v)?;
+    if missing {
+        o.predicted_miss_m = f32::INFINITY;
+    }
+    Ok(o)
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -253,7 +278,10 @@ const CHANNELS: &[ChannelDef] = &[
         schema: "ibvs.camera.Measurement",
         description: "The camera frame the flight computer was given (after any injected fault): \
              normalised image point (x right, y down, dimensionless), depth along the boresight, m; \
-             image_error = image point minus the controller's convergence point.",
+             probe_tip: the probe tip's marker, normalised (a camera set back from the tip); \
+             aim: where the controller steers the drogue's image (the paper's procedure: the \
+             convergence point; the refuelling procedure: the drogue dead ahead of the probe \
+             tip at the frame's depth); image_error = image point minus aim.",
         message: measurement,
     },
     ChannelDef {
@@ -284,7 +312,11 @@ const CHANNELS: &[ChannelDef] = &[
         schema: "ibvs.core.ControllerOutput",
         description: "The step's whole ibvs_core::ControllerOutput: saturated commands (rad, \
              throttle 0..1), mode, breakaway reason, status bits, rejections, desired camera \
-             velocity (re axes: x right, y down, z forward, m/s), target estimate (m), step count.",
+             velocity (re axes: x right, y down, z forward, m/s), target estimate (m), step count; \
+             refuelling: attempt, no-go reason, the drogue estimator's estimate (offset from the \
+             probe tip right and down, tanker axes, m; drogue velocity, m/s; depth, m) and the \
+             go/no-go gate's predicted miss, m (left out where it is infinite: no prediction \
+             outside the contact approach and the capture).",
         message: output,
     },
     ChannelDef {
@@ -320,8 +352,9 @@ impl LogStats {
     }
 }
 
-/// `v` with every null field of every object left out (an `Option`'s `None`, a NaN): the
-/// schemas then need no nullable types, which Foxglove's JSON Schema reader does not take.
+/// `v` with every null field of every object left out (an `Option`'s `None`, a NaN or an
+/// infinity): the schemas then need no nullable types, which Foxglove's JSON Schema reader
+/// does not take.
 fn without_nulls(v: Value) -> Value {
     match v {
         Value::Object(fields) => Value::Object(

@@ -524,7 +524,7 @@ fn dock(
         );
     }
     if let Some(rec) = recording {
-        let rec = rec.with_convergence_point(cfg.ibvs.convergence_point);
+        let rec = rec.with_config(cfg);
         record.write(out.as_deref(), &run, &rec)?;
     }
     let s = &run.summary;

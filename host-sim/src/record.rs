@@ -18,6 +18,9 @@
 
 use ibvs_core::ControllerConfig;
 use ibvs_core::controller::{ControllerInput, ControllerOutput};
+use ibvs_core::estimator::TipGeometry;
+use ibvs_core::gains::TRIM;
+use ibvs_core::procedure::Procedure;
 use ibvs_core::wire::{Downlink, Uplink, decode_uplink};
 use nalgebra::Vector3;
 
@@ -187,19 +190,40 @@ pub struct Recording {
     pub computer: &'static str,
     /// The camera's image geometry.
     pub image: ImageGeometry,
-    /// The image point the controller steers the drogue to (normalised): the default
-    /// configuration's unless set with [`Recording::with_convergence_point`].
-    pub convergence_point: [f32; 2],
+    /// The configuration of the controller that flew the run (its procedure, the image point
+    /// it steers to, its gates): the default configuration unless set with
+    /// [`Recording::with_config`].
+    pub config: ControllerConfig,
     /// One record per sample of the run.
     pub steps: Vec<StepRecord>,
 }
 
 impl Recording {
-    /// The recording with the convergence point of the controller that flew it.
-    pub fn with_convergence_point(self, point: [f32; 2]) -> Self {
-        Self {
-            convergence_point: point,
-            ..self
+    /// The recording with the configuration of the controller that flew it.
+    pub fn with_config(self, config: ControllerConfig) -> Self {
+        Self { config, ..self }
+    }
+
+    /// Where the controller steers the drogue's image, normalised `(x right, y down)`, for a
+    /// frame at camera depth `depth_m`. The paper's procedure: the IBVS convergence point.
+    /// The refuelling procedure: where the drogue appears when it is dead ahead of the probe
+    /// tip at that depth, its offset from the tip zero (the configured geometry's tip image
+    /// point scaled by the tip's depth over the drogue's, as [`TipGeometry::drogue_from_tip`]
+    /// reads a frame at trim attitude); for a camera at the tip, the image centre.
+    pub fn aim(&self, depth_m: f64) -> [f64; 2] {
+        let c = &self.config;
+        match c.procedure {
+            Procedure::Paper => c.ibvs.convergence_point.map(f64::from),
+            Procedure::Refuelling => {
+                let g = TipGeometry::new(&c.camera, c.probe_tip_body_m, TRIM.theta_rad);
+                let tip_depth = f64::from(g.tip_from_camera_m()[2]);
+                let scale = if depth_m > 0.0 && tip_depth > 0.0 {
+                    tip_depth / depth_m
+                } else {
+                    1.0
+                };
+                g.tip_image().map(|t| f64::from(t) * scale)
+            }
         }
     }
 }
@@ -287,7 +311,7 @@ fn record(
             seed: s.seed,
             computer,
             image: ImageGeometry::of(&s.camera),
-            convergence_point: ControllerConfig::default().ibvs.convergence_point,
+            config: ControllerConfig::default(),
             steps,
         },
     ))

@@ -1,7 +1,8 @@
 //! The flight-test log and the animation of a docking: recording does not change the run;
 //! the MCAP file opens with the `mcap` crate's reader and holds the documented channels, one
-//! message per control step each, whose values are the run's; the GIF has one frame per five
-//! control steps (and the last), of the stated size, and is the same bytes every time.
+//! message per control step each, whose values are the run's (the whole controller output
+//! read back); the GIF has one frame per five control steps (and the last), of the stated
+//! size, and is the same bytes every time.
 //! Processor in the loop (needs QEMU and the firmware ELF, `host_sim::pil::firmware_elf`: it
 //! is not built here): the link channels carry the raw frames, which decode to what the run
 //! flew.
@@ -43,7 +44,8 @@ fn controller() -> Controller {
     Controller::new(ControllerConfig::default()).expect("default config")
 }
 
-/// The default scenario (hose, wake, LED camera), flown and recorded.
+/// The default scenario (hose, wake, LED camera set back on the nose, the refuelling
+/// procedure), flown and recorded.
 fn recorded() -> (Run, Recording) {
     record::run(&Scenario::default(), &mut controller(), &[]).expect("recorded run")
 }
@@ -187,8 +189,10 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
     assert_eq!(outcome["outcome"], "docked");
     assert_eq!(meta.metadata["control_steps"], n.to_string());
 
-    // One value per channel, against the run (a step mid-approach, and the last).
+    // One value per channel, against the run (a step mid-run, at the pre-contact station, and
+    // the last).
     let k = n / 2;
+    assert_eq!(run.samples[k].output.mode, Mode::PreContact);
     let (s, r) = (&run.samples[k], &rec.steps[k]);
     let at = |topic: &str| &messages[topic][k].2;
     assert_eq!(
@@ -217,9 +221,30 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
     assert_eq!(f(&m["depth_m"]) as f32, s.measurement.depth_m);
     assert_eq!(m["tracked"], s.measurement.tracked);
     assert_eq!(m["seq"], s.measurement.seq);
+    // The set-back camera sees the probe tip's marker; the image error is from the aim, the
+    // drogue dead ahead of the tip at the frame's depth.
+    let tip = s.measurement.probe_tip.expect("the tip's marker in view");
+    assert_eq!(f(&m["probe_tip"]["x"]) as f32, tip[0]);
+    assert_eq!(f(&m["probe_tip"]["y"]) as f32, tip[1]);
+    let [ax, ay] = rec.aim(f64::from(s.measurement.depth_m));
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1.0);
+    assert!(near(f(&m["aim_x"]), ax) && near(f(&m["aim_y"]), ay), "{m}");
+    assert!(
+        near(
+            f(&m["image_error_y"]),
+            f64::from(s.measurement.image_y) - ay
+        ),
+        "{m}"
+    );
+    // Parallax: farther out than the tip, the drogue dead ahead of it appears nearer the
+    // image centre than the tip's marker.
+    assert!(
+        ay.signum() == f64::from(tip[1]).signum() && ay.abs() < f64::from(tip[1]).abs(),
+        "aim {ay}, tip {tip:?}"
+    );
     let image = at("/camera/image");
     let circle = &image["circle"];
-    assert!(s.measurement.tracked, "mid-approach the ring is tracked");
+    assert!(s.measurement.tracked, "at the station the ring is tracked");
     // The measurement is the circle's: depth = f R / r.
     let depth = rec.image.focal_px * rec.image.ring_radius_m / f(&circle["radius_px"]);
     assert!(
@@ -236,12 +261,34 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
         r.input.nav.lon.v_mps
     );
     assert_eq!(at("/controller/input")["request"], "None");
-    // The whole controller output comes back from its JSON.
-    for j in [k, n - 1] {
-        let o: ControllerOutput =
-            serde_json::from_value(messages["/controller/output"][j].2.clone())
-                .expect("a ControllerOutput");
+    // The whole controller output comes back from its JSON: at the station the gate predicts
+    // nothing (infinite, left out), in the contact approach and at docking it does.
+    let approach = run
+        .samples
+        .iter()
+        .rposition(|s| s.output.mode == Mode::Approach)
+        .expect("a contact approach");
+    for j in [k, approach, n - 1] {
+        let message = &messages["/controller/output"][j].2;
+        let o: ControllerOutput = flight_log::controller_output(message).expect("an output");
         assert_eq!(o, run.samples[j].output, "step {j}");
+        assert_eq!(
+            message.get("predicted_miss_m").is_some(),
+            o.predicted_miss_m.is_finite(),
+            "step {j}"
+        );
+        assert_eq!(message["attempt"], 1, "step {j}");
+        assert_eq!(
+            f(&message["estimate"]["depth_m"]) as f32,
+            o.estimate.depth_m,
+            "step {j}"
+        );
+    }
+    assert!(run.samples[k].output.predicted_miss_m.is_infinite());
+    assert!(run.samples[approach].output.predicted_miss_m.is_finite());
+    let schema = &channels["/controller/output"].2;
+    for field in ["attempt", "estimate", "predicted_miss_m"] {
+        assert!(schema["properties"].get(field).is_some(), "{field}");
     }
     assert_eq!(messages["/controller/output"][n - 1].2["mode"], "Docked");
     assert_eq!(run.samples[n - 1].output.mode, Mode::Docked);
