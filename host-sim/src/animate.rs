@@ -1,6 +1,7 @@
 //! The docking as an animated GIF: a chase view of receiver, probe, hose and drogue (side and
-//! top, tanker frame) beside the camera's own image (LED centroids, fitted circle, aim
-//! point, image error), with time, mode, depth and commands written out.
+//! top, tanker frame) beside the camera's own image (LED centroids, fitted circle, the probe
+//! tip's marker, the aim point, image error), with time, attempt, mode, depth, the drogue
+//! estimator's belief, the go/no-go gate and commands written out.
 //!
 //! Frames are drawn with plotters into an RGB buffer (axes, titles and the camera frame once,
 //! as a background; each frame copies it and draws what moves) and encoded here with the `gif`
@@ -17,9 +18,13 @@
 //! [`AnimationOptions::hold_last_cs`].
 //!
 //! The receiver is a schematic outline (fuselage, wings, tails, probe) placed by the true CG
-//! and attitude; its probe tip is the run's. The overlay shows what the controller reports
-//! today; the retry procedure's attempt number and the drogue estimator's state have their
-//! place in [`overlay_lines`] once `ControllerOutput` carries them.
+//! and attitude; its probe tip is the run's. The overlay ([`overlay_lines`]) is what the
+//! controller reports in its `ControllerOutput`: the mode and, in the refuelling procedure, the
+//! attempt, the drogue estimator's estimate (also drawn in the chase views, where the
+//! controller believes the drogue is) and the gate: the predicted miss against the gate radius
+//! while it is being decided, the go or no-go (when, with what prediction, why) once it was.
+//! The aim in the camera's image is where the controller steers the drogue's image
+//! ([`Recording::aim`]).
 //!
 //! Invariants: a GIF is a pure function of the run, the recording and the options (no clock,
 //! no randomness, the same bytes every time); it has exactly [`frame_steps`]`(n, k).len()`
@@ -30,7 +35,10 @@ use std::io::BufWriter;
 use std::path::Path;
 
 use gif::{DisposalMethod, Encoder, Frame, Repeat};
+use ibvs_core::Mode;
 use ibvs_core::controller::StatusFlags;
+use ibvs_core::estimator::DrogueEstimate;
+use ibvs_core::procedure::Procedure;
 use nalgebra::Vector3;
 use plotters::prelude::*;
 
@@ -51,7 +59,9 @@ const VIEW_W: i32 = 540;
 /// Height of each chase view, px.
 const VIEW_H: i32 = 270;
 /// Height of the camera panel (right column, top), px.
-const CAMERA_H: i32 = 300;
+const CAMERA_H: i32 = 290;
+/// Line spacing of the numbers, px.
+const LINE_H: i32 = 20;
 /// Palette index of "unchanged since the previous frame".
 const TRANSPARENT: u8 = 255;
 /// Grey-ramp entries after the 216-colour cube.
@@ -97,6 +107,8 @@ const FIT: RGBColor = RGBColor(0, 255, 0);
 const AIM: RGBColor = RGBColor(0, 204, 255);
 const ERROR: RGBColor = RGBColor(255, 51, 51);
 const TRUTH: RGBColor = RGBColor(255, 0, 255);
+const ESTIMATE: RGBColor = RGBColor(255, 153, 0);
+const TIP_MARKER: RGBColor = RGBColor(102, 153, 255);
 
 /// How to animate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -436,7 +448,7 @@ fn layout(run: &Run, rec: &Recording) -> Result<Layout, String> {
         };
         root.draw_text(
             &format!(
-                "Camera, {} x {} px: LEDs, fit, aim +, error",
+                "Camera, {} x {} px: LEDs, fit, tip, aim +, error",
                 g.width_px, g.height_px
             ),
             &("sans-serif", 16).into_font().color(&INK),
@@ -516,6 +528,7 @@ fn draw_views(
         r.world.receiver_cg_tanker_m + ned_from_body(&s.state) * Vector3::from(PROBE_ROOT_BODY_M),
         s.tip_tanker_m,
     ];
+    let estimate = estimated_drogue(s, rec);
     for v in &l.views {
         v.polyline(area, &trail_drogue, DROGUE_TRAIL.stroke_width(1))?;
         v.polyline(area, &trail_tip, TIP_TRAIL.stroke_width(1))?;
@@ -537,8 +550,25 @@ fn draw_views(
         v.polyline(area, &ring, DROGUE.stroke_width(2))?;
         v.dot(area, &s.drogue_tanker_m, 3, DROGUE.filled())?;
         v.dot(area, &s.tip_tanker_m, 3, TIP.filled())?;
+        if let Some(e) = &estimate {
+            v.dot(area, e, 5, ESTIMATE.stroke_width(2))?;
+        }
     }
     Ok(())
+}
+
+/// Where the controller believes the drogue centre is, tanker frame: the true probe tip plus
+/// the drogue estimator's offset and depth (refuelling procedure, once it has an estimate).
+fn estimated_drogue(s: &Sample, rec: &Recording) -> Option<Vector3<f64>> {
+    let e = &s.output.estimate;
+    (rec.config.procedure == Procedure::Refuelling && *e != DrogueEstimate::default()).then(|| {
+        s.tip_tanker_m
+            + Vector3::new(
+                f64::from(e.depth_m),
+                f64::from(e.offset_m[0]),
+                f64::from(e.offset_m[1]),
+            )
+    })
 }
 
 fn draw_camera(
@@ -564,6 +594,17 @@ fn draw_camera(
         .map_err(dbg)
     };
     cross((au, av), 8, AIM)?;
+    if let Some([x, y]) = m.probe_tip {
+        let (u, v) = c.geometry.to_px(f64::from(x), f64::from(y));
+        if c.inside(u, v) {
+            let (x, y) = c.map(u, v);
+            area.draw(&Rectangle::new(
+                [(x - 4, y - 4), (x + 4, y + 4)],
+                TIP_MARKER.stroke_width(2),
+            ))
+            .map_err(dbg)?;
+        }
+    }
     let led = r.world.led.as_ref();
     if let Some(image) = led.and_then(|l| l.image.as_ref()) {
         for p in image.centroids_px() {
@@ -660,16 +701,114 @@ fn status_names(flags: StatusFlags) -> Vec<&'static str> {
     .collect()
 }
 
+/// The mode as the overlay names it: its name, and what it is in the procedure flown.
+fn mode_name(mode: Mode, procedure: Procedure) -> String {
+    let what = match (mode, procedure) {
+        (Mode::PreContact, _) => " (station)",
+        (Mode::Approach, Procedure::Refuelling) => " (contact)",
+        (Mode::Terminal, Procedure::Refuelling) => " (capture)",
+        (Mode::Terminal, Procedure::Paper) => " (blind)",
+        _ => "",
+    };
+    format!("{mode:?}{what}")
+}
+
+/// A predicted miss in metres, without the unit ("none" where the gate predicts nothing:
+/// infinite).
+fn miss(m: f32) -> String {
+    if m.is_finite() {
+        format!("{m:.2}")
+    } else {
+        "none".to_string()
+    }
+}
+
+/// The refuelling procedure's go/no-go gate at step `k`: while the contact approach runs, the
+/// prediction against the gate radius and what the gate would decide with it now; in the
+/// capture and docked, the go (when, on what prediction), in the capture with the late gate's
+/// prediction; after a no-go, when, why and on what prediction; before the first approach, the
+/// gate's rule. `None` for the paper's procedure.
+fn gate_line(run: &Run, rec: &Recording, k: usize) -> Option<String> {
+    if rec.config.procedure != Procedure::Refuelling {
+        return None;
+    }
+    let rc = &rec.config.refuelling;
+    let o = &run.samples[k].output;
+    let samples = &run.samples[..=k];
+    // The step the last approach went to the capture (the gate's go), and the step the last
+    // no-go was declared: each carries the prediction the decision was taken on.
+    let go = samples
+        .windows(2)
+        .rposition(|w| w[0].output.mode == Mode::Approach && w[1].output.mode == Mode::Terminal)
+        .map(|j| &samples[j + 1]);
+    let no_go = samples
+        .windows(2)
+        .rposition(|w| w[1].output.no_go.is_some() && w[0].output.no_go != w[1].output.no_go)
+        .map(|j| &samples[j + 1]);
+    let went = |g: &Sample| {
+        format!(
+            "go at {:.2} s: predicted miss {} ≤ {:.2} m",
+            g.time_s,
+            miss(g.output.predicted_miss_m),
+            rc.gate_radius_m
+        )
+    };
+    Some(match (o.mode, o.no_go) {
+        (Mode::Approach, _) => {
+            let p = o.predicted_miss_m;
+            let verdict = if p <= rc.gate_radius_m { "go" } else { "no-go" };
+            if p.is_finite() {
+                format!(
+                    "gate at {:.1} m: predicted miss {p:.2} m, {verdict} (≤ {:.2} m)",
+                    rc.commit_depth_m, rc.gate_radius_m
+                )
+            } else {
+                format!("gate at {:.1} m: no prediction yet", rc.commit_depth_m)
+            }
+        }
+        (Mode::Terminal, _) if let Some(g) = go => format!(
+            "go at {:.2} s ({} ≤ {:.2} m); late gate {} ≤ {:.2} m",
+            g.time_s,
+            miss(g.output.predicted_miss_m),
+            rc.gate_radius_m,
+            miss(o.predicted_miss_m),
+            rc.late_gate_radius_m
+        ),
+        (_, Some(reason)) => match no_go {
+            Some(n) => format!(
+                "no-go at {:.2} s: {reason:?}, predicted {} m",
+                n.time_s,
+                miss(n.output.predicted_miss_m)
+            ),
+            None => format!("no-go: {reason:?}"),
+        },
+        _ => match go {
+            Some(g) => went(g),
+            None => format!(
+                "gate at {:.1} m: go if predicted miss ≤ {:.2} m",
+                rc.commit_depth_m, rc.gate_radius_m
+            ),
+        },
+    })
+}
+
 /// The numbers written beside the camera for step `k` (`last`: the run's final frame).
 pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<String> {
     let (s, r) = (&run.samples[k], &rec.steps[k]);
     let (o, m) = (&s.output, &s.measurement);
+    let procedure = rec.config.procedure;
     let deg = |v: f32| f64::from(v).to_degrees();
     let d = &s.drogue_from_tip_m;
-    // Place for the retry procedure's attempt number and the drogue estimator's state:
-    // add their lines here once `ControllerOutput` carries them.
+    let attempt = match procedure {
+        Procedure::Refuelling => format!("attempt {}    ", o.attempt),
+        Procedure::Paper => String::new(),
+    };
     let mut lines = vec![
-        format!("t {:5.2} s    mode {:?}", s.time_s, o.mode),
+        format!(
+            "t {:5.2} s    {attempt}mode {}",
+            s.time_s,
+            mode_name(o.mode, procedure)
+        ),
         if m.tracked {
             let [ax, ay] = rec.aim(f64::from(m.depth_m));
             let leds = r
@@ -692,6 +831,20 @@ pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<St
             "drogue − tip: fwd {:.2}, right {:+.2}, down {:+.2} m",
             d.x, d.y, d.z
         ),
+    ];
+    if procedure == Procedure::Refuelling {
+        let e = &o.estimate;
+        lines.push(if *e == DrogueEstimate::default() {
+            "estimate: none".to_string()
+        } else {
+            format!(
+                "estimate: fwd {:.2}, right {:+.2}, down {:+.2} m",
+                e.depth_m, e.offset_m[0], e.offset_m[1]
+            )
+        });
+    }
+    lines.extend(gate_line(run, rec, k));
+    lines.extend([
         format!(
             "v_des: right {:+.2}, down {:+.2}, fwd {:.2} m/s",
             o.v_des.x_right_mps, o.v_des.y_down_mps, o.v_des.z_fwd_mps
@@ -703,7 +856,7 @@ pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<St
             deg(o.command.rudder_rad),
             f64::from(o.command.throttle) * 100.0
         ),
-    ];
+    ]);
     let status = status_names(o.status);
     lines.push(if status.is_empty() {
         "status: nominal".to_string()
@@ -730,13 +883,15 @@ fn draw_legend(area: &Area<'_>) -> Result<(), String> {
             (TIP, "tip"),
             (HOSE, "hose"),
             (DROGUE, "drogue, capture ring"),
+            (ESTIMATE, "estimate"),
         ],
         &[
             (LED, "LEDs"),
             (FIT, "fit"),
             (AIM, "aim"),
-            (ERROR, "image error"),
+            (ERROR, "error"),
             (TRUTH, "true centre"),
+            (TIP_MARKER, "tip marker"),
         ],
     ];
     let font = ("sans-serif", 12).into_font().color(&INK);
@@ -760,7 +915,7 @@ fn draw_legend(area: &Area<'_>) -> Result<(), String> {
 fn draw_text(area: &Area<'_>, at: (i32, i32), lines: &[String]) -> Result<(), String> {
     let font = ("sans-serif", 15).into_font().color(&INK);
     for (i, line) in lines.iter().enumerate() {
-        area.draw_text(line, &font, (at.0, at.1 + 23 * i as i32))
+        area.draw_text(line, &font, (at.0, at.1 + LINE_H * i as i32))
             .map_err(dbg)?;
     }
     Ok(())

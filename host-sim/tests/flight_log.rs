@@ -2,7 +2,8 @@
 //! the MCAP file opens with the `mcap` crate's reader and holds the documented channels, one
 //! message per control step each, whose values are the run's (the whole controller output
 //! read back); the GIF has one frame per five control steps (and the last), of the stated
-//! size, and is the same bytes every time.
+//! size, and is the same bytes every time; its overlay follows the refuelling procedure
+//! (attempt, mode, estimate, the gate's decision).
 //! Processor in the loop (needs QEMU and the firmware ELF, `host_sim::pil::firmware_elf`: it
 //! is not built here): the link channels carry the raw frames, which decode to what the run
 //! flew.
@@ -357,6 +358,55 @@ fn the_animation_has_a_frame_every_five_steps_of_the_stated_size_and_is_determin
     );
     assert_eq!(a, b);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_overlay_follows_the_refuelling_procedure() {
+    let (run, rec) = recorded();
+    let rc = rec.config.refuelling;
+    let first = |mode: Mode| {
+        run.samples
+            .iter()
+            .position(|s| s.output.mode == mode)
+            .unwrap_or_else(|| panic!("{mode:?} flown"))
+    };
+    let text =
+        |k: usize| animate::overlay_lines(&run, &rec, k, k + 1 == run.samples.len()).join("\n");
+    // At the station: the attempt, the mode, the estimator's belief, the gate's rule.
+    let k = first(Mode::PreContact) + 50;
+    let o = &run.samples[k].output;
+    assert_eq!(o.mode, Mode::PreContact);
+    let t = text(k);
+    assert!(t.contains("attempt 1    mode PreContact"), "{t}");
+    assert!(
+        t.contains(&format!("estimate: fwd {:.2},", o.estimate.depth_m)),
+        "{t}"
+    );
+    assert!(
+        t.contains(&format!("go if predicted miss ≤ {:.2} m", rc.gate_radius_m)),
+        "{t}"
+    );
+    // In the contact approach: the gate's prediction and what it would decide.
+    let k = first(Mode::Terminal) - 1;
+    let o = &run.samples[k].output;
+    assert_eq!(o.mode, Mode::Approach);
+    let t = text(k);
+    assert!(t.contains("mode Approach (contact)"), "{t}");
+    assert!(
+        t.contains(&format!("predicted miss {:.2} m, go", o.predicted_miss_m)),
+        "{t}"
+    );
+    // Docked: the go, when and on what prediction.
+    let go = &run.samples[first(Mode::Terminal)];
+    let t = text(run.samples.len() - 1);
+    assert!(t.contains("mode Docked"), "{t}");
+    assert!(
+        t.contains(&format!(
+            "go at {:.2} s: predicted miss {:.2} ≤ {:.2} m",
+            go.time_s, go.output.predicted_miss_m, rc.gate_radius_m
+        )),
+        "{t}"
+    );
 }
 
 #[test]
