@@ -43,7 +43,7 @@ use nalgebra::Vector3;
 use plotters::prelude::*;
 
 use crate::output::{self, OutputError};
-use crate::plot::{self, Area};
+use crate::plot::{self, Area, dbg};
 use crate::record::{ImageGeometry, Recording, StepRecord};
 use crate::sim::{Run, Sample};
 use crate::synthesis::CONTROL_PERIOD_S;
@@ -153,10 +153,6 @@ pub fn frame_steps(samples: usize, steps_per_frame: usize) -> Vec<usize> {
         v.push(last);
     }
     v
-}
-
-fn dbg<E: std::fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
 }
 
 /// A chase view: where it is on the canvas, what it shows, on a fixed scale.
