@@ -18,14 +18,18 @@
 //! - a run: [`scenario`] (scenario files, presets, dispersion), [`sim`] (the closed loop),
 //!   [`docking`] (what counts as a dock), [`pil`] (the flight computer inside QEMU over its
 //!   serial link);
-//! - what a run gives: [`output`] (CSV, JSON), [`plot`], [`paper`] (the paper's
-//!   experiments), [`montecarlo`] (campaigns, shards, merge);
+//! - what a run gives: [`output`] (CSV, JSON), [`plot`], [`record`] (a run recorded in full:
+//!   inputs, hose, camera image, link frames) and from it [`flight_log`] (the MCAP
+//!   flight-test log) and [`animate`] (the GIF), [`paper`] (the paper's experiments),
+//!   [`montecarlo`] (campaigns, shards, merge);
 //! - the target benchmarks are the `target-bench` binary.
 //!
 //! Invariant: every random process takes a seed (turbulence, camera noise, INS errors,
 //! dispersion, link faults); the same scenario file gives the same run, bit for bit.
 
+pub mod animate;
 pub mod docking;
+pub mod flight_log;
 pub mod linearize;
 pub mod montecarlo;
 pub mod output;
@@ -33,6 +37,7 @@ pub mod paper;
 pub mod pil;
 pub mod plot;
 pub mod receiver;
+pub mod record;
 pub mod scenario;
 pub mod sim;
 pub mod synthesis;

@@ -6,6 +6,7 @@
 //! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
 //!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
 //!                    [--json] [--out DIR] [--no-files] [--pil [--firmware ELF]]
+//!                    [--animate [--still-s T]] [--log PATH.mcap]
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
 //! host-sim paper     [--out DIR] [--seeds N]
@@ -21,14 +22,16 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use host_sim::animate::{self, AnimationOptions};
 use host_sim::montecarlo::{self, CampaignMeta, Shard};
 use host_sim::receiver::F16;
+use host_sim::record::{self, Recording};
 use host_sim::scenario::{Law, PRESETS, ScenarioFile};
 use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
-use host_sim::{output, paper, pil, plot};
+use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::{Controller, ControllerConfig};
 
 #[derive(Parser)]
@@ -107,6 +110,15 @@ enum Command {
         /// Firmware ELF for `--pil` (default: build it, or `IBVS_FIRMWARE_ELF`).
         #[arg(long, value_name = "PATH", requires = "pil")]
         firmware: Option<PathBuf>,
+        /// Also write dock.gif: chase views and the camera's image, animated (docs/logs.md).
+        #[arg(long, conflicts_with = "no_files")]
+        animate: bool,
+        /// With `--animate`, also write dock-still.png: the animation's frame at this time, s.
+        #[arg(long, value_name = "T", requires = "animate")]
+        still_s: Option<f64>,
+        /// Write the flight-test log, MCAP with typed JSON channels, to this file (docs/logs.md).
+        #[arg(long, value_name = "PATH.mcap")]
+        log: Option<PathBuf>,
     },
     /// List the built-in scenarios.
     Scenarios,
@@ -155,7 +167,8 @@ struct MonteCarloArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
     out: PathBuf,
-    /// Print the scenario file of run I (dispersion applied) instead, to fly it with `dock`.
+    /// Print the scenario file of run I (dispersion applied) instead, to fly it with `dock`
+    /// (with `--animate` and `--log` to watch or log it).
     #[arg(long, value_name = "I", conflicts_with_all = ["runs", "jobs", "shard", "shards"])]
     show_run: Option<u64>,
 }
@@ -216,6 +229,9 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             no_files,
             pil,
             firmware,
+            animate,
+            still_s,
+            log,
         } => {
             let mut f = ScenarioFile::load(&scenario)?;
             if let Some(c) = controller {
@@ -246,7 +262,12 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             } else {
                 Computer::InProcess
             };
-            dock(&f, computer, json, (!no_files).then_some(out))
+            let record = Record {
+                animate,
+                still_s,
+                log,
+            };
+            dock(&f, computer, json, (!no_files).then_some(out), &record)
         }
         Command::Scenarios => {
             for (name, description, _) in PRESETS {
@@ -373,6 +394,70 @@ fn write_run(dir: &Path, run: &Run) -> Result<(), AnyError> {
     Ok(())
 }
 
+/// What `dock` records beyond its usual files.
+struct Record {
+    /// Write dock.gif.
+    animate: bool,
+    /// Write dock-still.png, the frame at this time.
+    still_s: Option<f64>,
+    /// Write the MCAP log here.
+    log: Option<PathBuf>,
+}
+
+impl Record {
+    fn any(&self) -> bool {
+        self.animate || self.log.is_some()
+    }
+
+    /// Writes the animation and the log of a recorded run; reports what was written.
+    fn write(&self, dir: Option<&Path>, run: &Run, rec: &Recording) -> Result<(), AnyError> {
+        if let (true, Some(dir)) = (self.animate, dir) {
+            let path = dir.join("dock.gif");
+            let started = std::time::Instant::now();
+            let a = animate::write_gif(&path, run, rec, &AnimationOptions::default())?;
+            eprintln!(
+                "wrote {}: {} frames of {} x {} px at {} ms, {} bytes, in {:.1} s",
+                path.display(),
+                a.frames,
+                a.width_px,
+                a.height_px,
+                u32::from(a.frame_delay_cs) * 10,
+                a.bytes,
+                started.elapsed().as_secs_f64()
+            );
+            if let Some(t) = self.still_s {
+                let k = run
+                    .samples
+                    .iter()
+                    .rposition(|s| s.time_s <= t)
+                    .unwrap_or_default();
+                let still = dir.join("dock-still.png");
+                animate::write_frame_png(&still, run, rec, k)?;
+                eprintln!(
+                    "wrote {} (t = {:.2} s)",
+                    still.display(),
+                    run.samples[k].time_s
+                );
+            }
+        }
+        if let Some(path) = &self.log {
+            if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+                std::fs::create_dir_all(parent)
+                    .map_err(|e| format!("{}: {e}", parent.display()))?;
+            }
+            let l = flight_log::write_mcap(path, run, rec)?;
+            eprintln!(
+                "wrote {}: {} messages on {} channels, {} bytes",
+                path.display(),
+                l.total_messages(),
+                l.messages.len(),
+                l.bytes
+            );
+        }
+        Ok(())
+    }
+}
+
 /// Where the controller runs.
 enum Computer {
     /// `ibvs_core::Controller` in this process.
@@ -386,10 +471,17 @@ fn dock(
     computer: Computer,
     json: bool,
     out: Option<PathBuf>,
+    record: &Record,
 ) -> Result<(), AnyError> {
     let cfg = f.controller_config();
     let scenario = f.scenario();
+    let mut recording = None;
     let (run, pil) = match computer {
+        Computer::InProcess if record.any() => {
+            let (run, rec) = record::run(&scenario, &mut Controller::new(cfg)?, &[])?;
+            recording = Some(rec);
+            (run, None)
+        }
         Computer::InProcess => (sim::run(&scenario, &mut Controller::new(cfg)?)?, None),
         Computer::Pil(elf) => {
             // The firmware flies its built-in configuration; a scenario that changes the
@@ -407,7 +499,13 @@ fn dock(
                 None => pil::firmware_elf()?,
             };
             let mut fc = pil::PilFlightComputer::spawn(&elf)?;
-            let run = sim::run(&scenario, &mut fc)?;
+            let run = if record.any() {
+                let (run, rec) = record::run_pil(&scenario, &mut fc, &[])?;
+                recording = Some(rec);
+                run
+            } else {
+                sim::run(&scenario, &mut fc)?
+            };
             let failure = fc.last_error().map(ToString::to_string);
             let (stats, log) = fc.shutdown();
             if let Some(e) = failure {
@@ -424,6 +522,10 @@ fn dock(
             "wrote {0}/run.csv, {0}/summary.json, {0}/dock.png",
             dir.display()
         );
+    }
+    if let Some(rec) = recording {
+        let rec = rec.with_config(cfg);
+        record.write(out.as_deref(), &run, &rec)?;
     }
     let s = &run.summary;
     if json {

@@ -37,6 +37,22 @@ pub enum OutputError {
         /// What went wrong.
         reason: String,
     },
+    /// MCAP encoding (the flight-test log).
+    #[error("MCAP: {0}")]
+    Mcap(#[from] mcap::McapError),
+    /// GIF encoding (the animation).
+    #[error("GIF: {0}")]
+    Gif(#[from] gif::EncodingError),
+    /// Two things that must have the same length do not.
+    #[error("{what}: {left} against {right}")]
+    Mismatch {
+        /// What was compared.
+        what: &'static str,
+        /// One length.
+        left: usize,
+        /// The other.
+        right: usize,
+    },
 }
 
 /// One CSV row.

@@ -385,6 +385,9 @@ pub struct PilLink {
     last_frame: Vec<u8>,
     sent: Vec<u8>,
     boot: Downlink,
+    /// Bytes of the command frame being received, and of the last one accepted.
+    rx_frame: Vec<u8>,
+    last_rx_frame: Vec<u8>,
 }
 
 impl Drop for PilLink {
@@ -449,6 +452,8 @@ impl PilLink {
             last_frame: Vec::new(),
             sent: Vec::new(),
             boot: Downlink::default(),
+            rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
+            last_rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
         };
         let deadline = Instant::now() + opts.boot_timeout;
         link.stream = loop {
@@ -516,6 +521,18 @@ impl PilLink {
     /// Every byte written to the link so far, faults included.
     pub fn sent_bytes(&self) -> &[u8] {
         &self.sent
+    }
+
+    /// The last measurement frame encoded (as [`PilLink::resend`] repeats it: before faults),
+    /// COBS-encoded, its zero delimiter included; empty before the first.
+    pub fn last_measurement_frame(&self) -> &[u8] {
+        &self.last_frame
+    }
+
+    /// The raw bytes of the last command frame accepted by [`PilLink::recv`], COBS-encoded,
+    /// its zero delimiter included (the boot frame's before the first step).
+    pub fn last_command_frame(&self) -> &[u8] {
+        &self.last_rx_frame
     }
 
     /// The host's counts.
@@ -605,10 +622,21 @@ impl PilLink {
         let mut chunk = [0u8; 512];
         loop {
             while let Some(b) = self.rx_buf.pop_front() {
-                let Some(r) = self.decoder.feed(b) else {
+                if self.rx_frame.len() < MAX_FRAME_LEN {
+                    self.rx_frame.push(b);
+                }
+                let r = self.decoder.feed(b).map(|r| r.and_then(|p| p.downlink()));
+                if b == 0 {
+                    // A zero ends a frame (or an empty one): the bytes kept are that frame's.
+                    if matches!(r, Some(Ok(_))) {
+                        std::mem::swap(&mut self.rx_frame, &mut self.last_rx_frame);
+                    }
+                    self.rx_frame.clear();
+                }
+                let Some(r) = r else {
                     continue;
                 };
-                match r.and_then(|p| p.downlink()) {
+                match r {
                     Ok(d) => {
                         self.host.rx.count_sequence(self.rx_seq.observe(d.seq));
                         return Ok(Some(d));

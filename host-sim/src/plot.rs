@@ -20,7 +20,8 @@ use crate::world::drogue::CAPTURE_RADIUS_M;
 /// DejaVu Sans, registered as plotters' "sans-serif".
 const FONT_TTF: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 
-fn fonts() -> Result<(), String> {
+/// Registers the embedded font (once per process).
+pub(crate) fn fonts() -> Result<(), String> {
     static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

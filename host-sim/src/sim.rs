@@ -428,6 +428,18 @@ pub fn run_with_faults(
     fc: &mut dyn FlightComputer,
     faults: &[SimFault],
 ) -> Result<Run, SimError> {
+    run_observed(s, fc, faults, &mut |_, _| {})
+}
+
+/// [`run_with_faults`], calling `observer` once per control step with the world and the
+/// step's [`Sample`] just recorded (the world as the camera saw it, before it is advanced).
+/// The observer sees, it cannot change: the run is the same with any observer.
+pub fn run_observed(
+    s: &Scenario,
+    fc: &mut dyn FlightComputer,
+    faults: &[SimFault],
+    observer: &mut dyn FnMut(&World, &Sample),
+) -> Result<Run, SimError> {
     let mut injector = FaultInjector::new(faults).map_err(SimError::Scenario)?;
     if !(s.duration_s.is_finite()
         && s.duration_s > 0.0
@@ -519,6 +531,9 @@ pub fn run_with_faults(
             },
             state: x,
         });
+        if let Some(recorded) = samples.last() {
+            observer(&world, recorded);
+        }
         prev_tip = tip_now;
         attempts.observe(&output, t);
         if output.mode == Mode::Breakaway && breakaway_at.is_none() {

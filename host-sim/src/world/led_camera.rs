@@ -503,13 +503,32 @@ impl Scene {
     }
 }
 
+/// What one frame's image held: the measured centroids of the visible LEDs and the circle
+/// fitted to them, from which the frame's measurement was computed (kept for logs and
+/// animations; nothing in the loop reads it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LedImage {
+    centroids_px: [Vector2<f64>; MAX_LEDS],
+    visible: usize,
+    /// The fitted circle, px; `None` exactly when the frame is not tracked.
+    pub circle: Option<Circle>,
+}
+
+impl LedImage {
+    /// The visible LEDs' measured centroids (noise and quantisation included), px (u right,
+    /// v down, from the image's top-left corner), in LED order.
+    pub fn centroids_px(&self) -> &[Vector2<f64>] {
+        &self.centroids_px[..self.visible]
+    }
+}
+
 /// One captured frame on its way to the caller.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Frame {
     delivery_time_s: f64,
     measurement: CameraMeasurement,
     truth: TrueFeature,
-    visible_leds: usize,
+    image: LedImage,
 }
 
 /// In-plane unit vectors `(e1, e2)` of a ring perpendicular to `axis` (module doc), or `None`
@@ -772,7 +791,11 @@ impl LedCamera {
                 delivery_time_s: capture_time_s + p.latency_s(),
                 measurement,
                 truth,
-                visible_leds: visible,
+                image: LedImage {
+                    centroids_px: pixels,
+                    visible,
+                    circle: fit,
+                },
             });
         }
     }
@@ -791,7 +814,13 @@ impl LedCamera {
 
     /// LEDs visible in the frame behind [`Self::latest`] (0 before the first delivery).
     pub fn visible_leds(&self) -> usize {
-        self.latest.map_or(0, |f| f.visible_leds)
+        self.latest.map_or(0, |f| f.image.visible)
+    }
+
+    /// The image behind [`Self::latest`]: centroids and fitted circle (`None` before the
+    /// first delivery).
+    pub fn latest_image(&self) -> Option<&LedImage> {
+        self.latest.as_ref().map(|f| &f.image)
     }
 
     /// Frames captured since construction (the last `seq` given out, before wrapping).
@@ -1157,6 +1186,45 @@ mod tests {
             1,
         );
         assert_eq!((visible, m.tracked), (0, false));
+    }
+
+    #[test]
+    fn the_latest_image_holds_the_centroids_and_circle_behind_the_measurement() {
+        let params = LedCameraParams {
+            latency_frames: 0,
+            ..LedCameraParams::default()
+        };
+        let mut cam = LedCamera::new(params, 3).unwrap();
+        assert!(cam.latest_image().is_none());
+        let pose = level_pose();
+        // Centre at x = 0.62 (as above): five LEDs in the image.
+        let (c, a) = scene(
+            &pose,
+            &Vector3::new(0.62 * 6.0, 0.0, 6.0),
+            &axis_camera(0.0, 0.0),
+        );
+        cam.update(0.0, &pose, &c, &a);
+        let (m, image) = (cam.latest(), *cam.latest_image().unwrap());
+        assert_eq!(image.centroids_px().len(), cam.visible_leds());
+        assert_eq!(image.centroids_px().len(), 5);
+        // The measurement is the circle's centre and f R / r, and the circle is the fit of
+        // exactly these centroids.
+        let circle = image.circle.unwrap();
+        assert_eq!(Some(circle), fit_circle(image.centroids_px()));
+        let u = f64::from(m.image_x) * params.focal_px + params.principal_u_px;
+        assert!((u - circle.centre_px.x).abs() < 1e-3, "{u} {circle:?}");
+        let depth = params.focal_px * params.ring_radius_m / circle.radius_px;
+        assert!((f64::from(m.depth_m) - depth).abs() < 1e-5 * depth);
+        // An untracked frame keeps its (too few) centroids and no circle.
+        let (c, a) = scene(
+            &pose,
+            &Vector3::new(0.66 * 6.0, -0.47 * 6.0, 6.0),
+            &axis_camera(0.0, 0.0),
+        );
+        cam.update(TS, &pose, &c, &a);
+        let image = cam.latest_image().unwrap();
+        assert!(!cam.latest().tracked);
+        assert_eq!((image.centroids_px().len(), image.circle), (2, None));
     }
 
     #[test]
