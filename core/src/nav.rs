@@ -329,7 +329,11 @@ mod tests {
                     .wrapping_add(1442695040888963407 + i);
                 // mostly in range, sometimes anything
                 let v = values[(k >> 33) % values.len()];
-                if (k >> 20) % 4 == 0 { v } else { v * 0.1 }
+                if (k >> 20).is_multiple_of(4) {
+                    v
+                } else {
+                    v * 0.1
+                }
             });
             let s = NavSample::from_array(a);
             assert_eq!(s.check(&bits), s.validate(&env), "{a:?}");
