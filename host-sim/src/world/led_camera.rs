@@ -1,10 +1,10 @@
 //! A realistic drogue camera: it images the drogue's LED ring, fits a circle to the LED
 //! centroids and reports the circle's centre as the image point and `f R / r_px` as the depth,
-//! as the paper's authors did (model-data.md, "Camera"), on its own clock, with noise,
+//! as the paper's authors did (`docs/models.md`, "Camera"), on its own clock, with noise,
 //! quantisation, latency, frame drops and field-of-view loss.
 //!
-//! Source: model-data.md "Camera" (8 LEDs on a 0.33 m ring, depth = f R / r_px; our defaults
-//! 640 x 480 px, f = 500 px, 50 Hz, 0.5 px noise, one frame of latency). Judgement, ours:
+//! Source: `docs/models.md`, "Camera" (8 LEDs on a 0.33 m ring, depth = f R / r_px; our
+//! defaults 640 x 480 px, f = 500 px, 50 Hz, 0.5 px noise, one frame of latency). Judgement, ours:
 //! 0.1 px centroid quantisation (sub-pixel centroiding), LEDs closer than 0.1 m along the
 //! boresight are lost, 3 LEDs at least for a fit, and the algebraic (Kasa) circle fit alone:
 //! Gauss-Newton refinement of the geometric fit ([`refine_circle_geometric`],
@@ -73,18 +73,18 @@ pub const MAX_LATENCY_FRAMES: u32 = 1000;
 /// Fewest points that determine a circle.
 pub const MIN_CIRCLE_POINTS: usize = 3;
 
-/// Default LED count on the drogue ring (model-data.md).
+/// Default LED count on the drogue ring (`docs/models.md`, "Camera").
 pub const DEFAULT_LED_COUNT: usize = 8;
-/// Default LED ring radius, m (model-data.md).
+/// Default LED ring radius, m (`docs/models.md`, "Camera").
 pub const DEFAULT_RING_RADIUS_M: f64 = 0.33;
-/// Default image width, px (model-data.md, our judgement).
+/// Default image width, px (`docs/models.md`, "Camera", our judgement).
 pub const DEFAULT_WIDTH_PX: f64 = 640.0;
-/// Default image height, px (model-data.md, our judgement).
+/// Default image height, px (`docs/models.md`, "Camera", our judgement).
 pub const DEFAULT_HEIGHT_PX: f64 = 480.0;
-/// Default focal length, px (model-data.md, our judgement).
+/// Default focal length, px (`docs/models.md`, "Camera", our judgement).
 pub const DEFAULT_FOCAL_PX: f64 = 500.0;
 /// Default standard deviation of each LED centroid's pixel noise, per axis, px
-/// (model-data.md, our judgement).
+/// (`docs/models.md`, "Camera", our judgement).
 pub const DEFAULT_PIXEL_NOISE_PX: f64 = 0.5;
 /// Default quantisation step of the LED centroids, px (judgement: sub-pixel centroiding of a
 /// blob resolves about a tenth of a pixel).
@@ -92,9 +92,9 @@ pub const DEFAULT_QUANTISATION_PX: f64 = 0.1;
 /// Default depth along the boresight below which an LED is lost, m (judgement: the LED is
 /// out of focus and at the lens).
 pub const DEFAULT_MIN_LED_DEPTH_M: f64 = 0.1;
-/// Default camera frame rate, Hz (model-data.md).
+/// Default camera frame rate, Hz (`docs/models.md`, "Camera").
 pub const DEFAULT_RATE_HZ: f64 = 50.0;
-/// Default latency, frames (model-data.md, our judgement).
+/// Default latency, frames (`docs/models.md`, "Camera", our judgement).
 pub const DEFAULT_LATENCY_FRAMES: u32 = 1;
 /// Default number of Gauss-Newton iterations of the geometric circle fit after the algebraic
 /// fit: none (module doc, "Source").
