@@ -314,6 +314,14 @@ impl ModeModel {
         out: &ControllerOutput,
         cfg: &ControllerConfig,
     ) -> Result<(), String> {
+        // The navigation bookkeeping both tables read (the last valid sample, the run of
+        // invalid ones).
+        if out.nav_error.is_none() {
+            self.last_nav = input.nav;
+            self.nav_invalid = 0;
+        } else {
+            self.nav_invalid = self.nav_invalid.saturating_add(1);
+        }
         match cfg.procedure {
             Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg)),
             Procedure::Refuelling => self.step_refuelling(input, out, cfg),
@@ -329,14 +337,6 @@ impl ModeModel {
     ) -> Result<(), String> {
         use Allowed::*;
         let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
-        if nav_ok {
-            self.last_nav = input.nav;
-        }
-        self.nav_invalid = if nav_ok {
-            0
-        } else {
-            self.nav_invalid.saturating_add(1)
-        };
         let before = self.mode;
         let engaged = matches!(before, Mode::Approach | Mode::Terminal | Mode::Docked);
         let mut refused = false;
@@ -439,14 +439,6 @@ impl ModeModel {
         let (md, rc) = (&cfg.modes, &cfg.refuelling);
         let steps = |t: f32| (t / Controller::PERIOD_S).round() as u32;
         let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
-        if nav_ok {
-            self.last_nav = input.nav;
-        }
-        self.nav_invalid = if nav_ok {
-            0
-        } else {
-            self.nav_invalid.saturating_add(1)
-        };
         let before = (self.mode, self.reason, self.attempt, self.no_go);
         let engaged = !matches!(self.mode, Mode::Standby | Mode::Breakaway);
         let mut refused = false;
