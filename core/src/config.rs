@@ -19,6 +19,7 @@ use crate::mode::ModeConfig;
 use crate::nav::NavEnvelope;
 use crate::num::{SIN_COS_MAX_RAD, max_to};
 use crate::outer::{IbvsGains, PbvsGains, PbvsGeometry, VelocityLimits};
+use crate::predictor::MAX_NAV_LATENCY_STEPS;
 use crate::procedure::{Procedure, RefuellingConfig};
 
 /// Which outer loop flies the approach.
@@ -60,6 +61,11 @@ pub struct ControllerConfig {
     pub actuators: ActuatorLimits,
     /// Bound on each inner-loop integrator (a position error), m.
     pub integrator_limit_m: f32,
+    /// Latency of the navigation sample, control periods: the installed INS's, from its
+    /// installation data. The inner loops see the state predicted forward over it
+    /// ([`crate::predictor`]); 0 feeds the sample back as it is. At most
+    /// [`MAX_NAV_LATENCY_STEPS`].
+    pub nav_latency_steps: u8,
     /// The refuelling procedure.
     pub refuelling: RefuellingConfig,
     /// The drogue estimator (refuelling procedure).
@@ -140,6 +146,9 @@ impl Default for ControllerConfig {
             modes: ModeConfig::default(),
             actuators: ActuatorLimits::default(),
             integrator_limit_m: 20.0,
+            // The stated sensor suite's INS: one control period (docs/models.md,
+            // "Navigation").
+            nav_latency_steps: 1,
             refuelling: RefuellingConfig::default(),
             estimator: EstimatorConfig::default(),
         }
@@ -182,6 +191,8 @@ impl ControllerConfig {
                 position_body_m: gains::DESIGN_CAMERA_BODY_M,
                 ..d.camera
             },
+            // The paper's navigation is perfect.
+            nav_latency_steps: 0,
             ..d
         }
     }
@@ -326,6 +337,10 @@ impl ControllerConfig {
             require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
         }
         check("integrator_limit_m", self.integrator_limit_m, true)?;
+        require(
+            "nav_latency_steps (at most predictor::MAX_NAV_LATENCY_STEPS)",
+            self.nav_latency_steps <= MAX_NAV_LATENCY_STEPS,
+        )?;
         self.validate_refuelling()?;
         self.validate_estimator()
     }

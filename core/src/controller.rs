@@ -41,6 +41,7 @@ use crate::mode::{
 use crate::nav::{EnvelopeBits, NavError, NavSample};
 use crate::num::max_to;
 use crate::outer::{self, OuterOutput};
+use crate::predictor::LatencyPredictor;
 use crate::procedure::{self, Forward, Procedure};
 
 /// Everything the controller reads in one step.
@@ -274,6 +275,8 @@ pub struct Controller {
     lon: Channel<5, 2, 2>,
     engine: EngineEstimate,
     lat: Channel<5, 1, 2>,
+    predict_lon: LatencyPredictor<4, 2, 2>,
+    predict_lat: LatencyPredictor<5, 2, 2>,
     modes: ModeMachine,
     estimator: DrogueEstimator,
     tip_sight: TipSight,
@@ -314,6 +317,8 @@ impl Controller {
             ),
             lat: Channel::new(lat, &lever_arm_lat(tracked), [trim[2], trim[3]]),
             engine: EngineEstimate::new(gains::ENGINE_MODEL),
+            predict_lon: LatencyPredictor::new(gains::PREDICT_LON, cfg.nav_latency_steps),
+            predict_lat: LatencyPredictor::new(gains::PREDICT_LAT, cfg.nav_latency_steps),
             cfg,
             derived,
             modes: ModeMachine::default(),
@@ -569,8 +574,15 @@ impl Controller {
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
+        // The state feedback acts on the (late) sample predicted over the INS latency; the
+        // integrators and the mode logic read the sample itself (`predictor`).
         let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
         let x_lat = self.last_nav.lat_design_state();
+        let [theta, v, alpha, q] = self
+            .predict_lon
+            .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
+        let x_lon_now = [theta, v, alpha, q, x_lon[4]];
+        let x_lat_now = self.predict_lat.predict(x_lat);
 
         // 2. Measurement, 3. outer loop: the paper's law (its output is kept, i.e. held, until
         // the next valid one), or the refuelling procedure's drogue estimator. The mode
@@ -669,16 +681,21 @@ impl Controller {
             self.lon.reset();
             self.lat.reset();
             self.engine.reset();
+            self.predict_lon.reset();
+            self.predict_lat.reset();
             trim
         } else if open_loop {
             [trim[0], self.derived.open_loop_throttle, trim[2], trim[3]]
         } else {
-            let [e, th] = self.lon.control(&x_lon);
-            let [a, r] = self.lat.control(&x_lat);
+            let [e, th] = self.lon.control(&x_lon_now);
+            let [a, r] = self.lat.control(&x_lat_now);
             [e, th, a, r]
         };
         let (command, sat) = self.cfg.actuators.saturate(requested, trim);
-        self.engine.advance(command[1] - trim[1]);
+        let du: [f32; 4] = core::array::from_fn(|i| command[i] - trim[i]);
+        self.engine.advance(du[1]);
+        self.predict_lon.record([du[0], du[1]]);
+        self.predict_lat.record([du[2], du[3]]);
         let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
             let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
             let lon = self.lon.integrate(

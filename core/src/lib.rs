@@ -88,6 +88,7 @@ pub mod mode;
 pub mod nav;
 pub mod num;
 pub mod outer;
+pub mod predictor;
 pub mod procedure;
 pub mod wire;
 

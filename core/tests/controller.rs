@@ -1003,6 +1003,14 @@ fn new_rejects_an_invalid_config_naming_the_field() {
         rejection(|c| c.modes.breakaway_aft_mps = -2.0),
         named("modes.breakaway_aft_mps", ConfigProblem::Negative)
     );
+    assert_eq!(
+        rejection(|c| c.nav_latency_steps = 5),
+        named(
+            "nav_latency_steps (at most predictor::MAX_NAV_LATENCY_STEPS)",
+            ConfigProblem::Inconsistent
+        )
+    );
+    assert_eq!(rejection(|c| c.nav_latency_steps = 4), None);
     assert_eq!(rejection(|_| {}), None);
     assert_eq!(rejection(|c| c.law = OuterLaw::Pbvs), None);
 }

@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 
 use nalgebra::DMatrix;
 
-use super::{ChannelDesign, Synthesis};
+use super::{ChannelDesign, PredictorModel, Synthesis};
 
 /// Path of the generated module, relative to the workspace root.
 pub const CORE_GAINS_PATH: &str = "core/src/gains.rs";
@@ -23,8 +23,12 @@ fn lit(v: f64) -> String {
 }
 
 fn matrix(m: &DMatrix<f64>, cols: std::ops::Range<usize>) -> String {
-    let rows: Vec<String> = m
-        .row_iter()
+    block(m, 0..m.nrows(), cols)
+}
+
+fn block(m: &DMatrix<f64>, rows: std::ops::Range<usize>, cols: std::ops::Range<usize>) -> String {
+    let rows: Vec<String> = rows
+        .map(|i| m.row(i))
         .map(|r| {
             let v: Vec<String> = cols.clone().map(|c| lit(r[c])).collect();
             format!("[{}]", v.join(", "))
@@ -51,6 +55,25 @@ fn channel(name: &str, doc: &str, d: &ChannelDesign) -> String {
     )
 }
 
+fn predictor(name: &str, doc: &str, p: &PredictorModel) -> String {
+    let (nm, n, nu) = (p.measured, p.phi.nrows(), p.gamma.ncols());
+    format!(
+        "/// {doc}\n///\n/// Measured states first ({nm}), then the unmeasured ones ({ne}).\n\
+         pub const {name}: PlantModel<{nm}, {ne}, {nu}> = PlantModel {{\n    \
+         delta_mm: {mm},\n    phi_me: {me},\n    phi_ee: {ee},\n    gamma_m: {gm},\n    gamma_e: {ge},\n}};\n",
+        ne = n - nm,
+        mm = block(
+            &(p.phi.view((0, 0), (nm, nm)) - DMatrix::<f64>::identity(nm, nm)),
+            0..nm,
+            0..nm
+        ),
+        me = block(&p.phi, 0..nm, nm..n),
+        ee = block(&p.phi, nm..n, nm..n),
+        gm = block(&p.gamma, 0..nm, 0..nu),
+        ge = block(&p.gamma, nm..n, 0..nu),
+    )
+}
+
 /// The module's full text: the paper's procedure's design `s` and the refuelling
 /// procedure's `refuel` (the same plant, trim and engine model; other weights).
 pub fn render(s: &Synthesis, refuel: &Synthesis) -> String {
@@ -66,7 +89,7 @@ pub fn render(s: &Synthesis, refuel: &Synthesis) -> String {
          //! Design: nonlinear F-16 (low-fidelity data) trimmed at {v} m/s, {h} m, linearised,\n\
          //! discretised by zero-order hold at Ts = {ts} s, integrators as forward sums, discrete LQR.\n\
          //! Weights (diagonal): lon Q {lq:?}, R {lr:?}; lat Q {aq:?}, R {ar:?}.\n\n\
-         use crate::inner::{{ChannelGains, EngineModel, TrimPoint}};\n\n\
+         use crate::inner::{{ChannelGains, EngineModel, TrimPoint}};\nuse crate::predictor::PlantModel;\n\n\
          /// Control period the gains were synthesised for, s.\n\
          pub const CONTROL_PERIOD_S: f32 = {ts_lit};\n\n\
          /// Trim point of the design (residual {res:.1e}).\n\
@@ -114,6 +137,20 @@ pub fn render(s: &Synthesis, refuel: &Synthesis) -> String {
         "LAT",
         "Lateral channel: aileron and rudder.",
         &s.lat,
+    ));
+    out.push('\n');
+    out.push_str(&predictor(
+        "PREDICT_LON",
+        "Latency predictor's longitudinal model: states theta, V, alpha, q; engine power, \
+         elevator actuator (first-order lag); inputs elevator, throttle (perturbations).",
+        &s.predictor_lon,
+    ));
+    out.push('\n');
+    out.push_str(&predictor(
+        "PREDICT_LAT",
+        "Latency predictor's lateral model: states psi, phi, beta, p, r; aileron and rudder \
+         actuators (first-order lags); inputs aileron, rudder (perturbations).",
+        &s.predictor_lat,
     ));
     let (rw, _) = (&refuel.weights, ());
     let _ = write!(

@@ -14,6 +14,7 @@
 //! every closed loop `A_aug - B_aug K` has its eigenvalues strictly inside the unit circle.
 
 pub mod codegen;
+pub mod latency;
 pub mod linalg;
 
 use nalgebra::DMatrix;
@@ -109,6 +110,14 @@ pub enum SynthesisError {
         /// The solver's error.
         source: DareError,
     },
+    /// An unmeasured state of the latency predictor's model depends on a measured one.
+    #[error(
+        "{channel} channel: an actuator or engine row of the predictor's model depends on a measured state"
+    )]
+    PredictorCoupled {
+        /// "lon" or "lat".
+        channel: &'static str,
+    },
     /// The engine power depends on more than power and throttle in the linear model.
     #[error(
         "lon channel: the engine row of the plant is coupled to other states; the core's engine model would be wrong"
@@ -189,6 +198,10 @@ pub struct Synthesis {
     pub lat: ChannelDesign,
     /// The engine row of the discrete longitudinal plant: `(pole, gain per unit throttle)`.
     pub engine_model: (f64, f64),
+    /// The latency predictor's longitudinal model (`ibvs_core::predictor`).
+    pub predictor_lon: PredictorModel,
+    /// The latency predictor's lateral model.
+    pub predictor_lat: PredictorModel,
     /// The continuous linear model (not serialised: the channel blocks are).
     #[serde(skip)]
     pub linear: LinearModel,
@@ -251,6 +264,74 @@ fn design_channel(
         ts,
         riccati_residual: residual,
         closed_loop_spectral_radius: radius,
+    })
+}
+
+/// One channel's plant with a first-order lag on each surface input, discretised by
+/// zero-order hold: the model the core's latency predictor runs. States: the channel's
+/// design states, then one per actuated input; the first `measured` are the ones the
+/// navigation sample carries (the engine power and the actuators are not).
+#[derive(Debug, Clone, Serialize)]
+pub struct PredictorModel {
+    /// How many leading states are measured.
+    pub measured: usize,
+    /// Discrete state matrix.
+    #[serde(rename = "Phi", serialize_with = "rows")]
+    pub phi: DMatrix<f64>,
+    /// Discrete input matrix.
+    #[serde(rename = "Gamma", serialize_with = "rows")]
+    pub gamma: DMatrix<f64>,
+}
+
+/// The continuous plant `(a, b)` with a first-order lag of bandwidth `bandwidth_radps` on
+/// each input `i` with `actuated[i]`: states `[plant; one per actuated input]`.
+pub fn with_actuators(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    actuated: &[bool],
+    bandwidth_radps: f64,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, nu) = (a.nrows(), b.ncols());
+    let np = n + actuated.iter().filter(|&&x| x).count();
+    let mut ac = DMatrix::zeros(np, np);
+    let mut bc = DMatrix::zeros(np, nu);
+    ac.view_mut((0, 0), (n, n)).copy_from(a);
+    let mut j = n;
+    for (i, &act) in actuated.iter().enumerate() {
+        if act {
+            ac.view_mut((0, j), (n, 1)).copy_from(&b.column(i));
+            ac[(j, j)] = -bandwidth_radps;
+            bc[(j, i)] = bandwidth_radps;
+            j += 1;
+        } else {
+            bc.view_mut((0, i), (n, 1)).copy_from(&b.column(i));
+        }
+    }
+    (ac, bc)
+}
+
+/// The predictor's model of one channel: `(a, b)` the continuous design plant, `actuated[i]`
+/// whether input `i` goes through a surface actuator of bandwidth `bandwidth_radps`.
+fn predictor_model(
+    channel: &'static str,
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    actuated: &[bool],
+    bandwidth_radps: f64,
+    measured: usize,
+    ts_s: f64,
+) -> Result<PredictorModel, SynthesisError> {
+    let (ac, bc) = with_actuators(a, b, actuated, bandwidth_radps);
+    let np = ac.nrows();
+    let (phi, gamma) = zoh(&ac, &bc, ts_s);
+    let coupled = (measured..np).any(|r| (0..measured).any(|c| phi[(r, c)].abs() > 1e-12));
+    if coupled {
+        return Err(SynthesisError::PredictorCoupled { channel });
+    }
+    Ok(PredictorModel {
+        measured,
+        phi,
+        gamma,
     })
 }
 
@@ -322,6 +403,38 @@ pub fn synthesize(
         (names(&LAT_STATES), names(&LAT_INPUTS), names(&LAT_OUTPUTS)),
     )?;
     let engine_model = engine_row(&lon)?;
+    let bandwidth = model.actuators().bandwidth_radps;
+    let block = |r: std::ops::Range<usize>, b0: usize| {
+        (
+            linear
+                .a
+                .view((r.start, r.start), (r.len(), r.len()))
+                .into_owned(),
+            linear.b.view((r.start, b0), (r.len(), 2)).into_owned(),
+        )
+    };
+    let (a_lon, b_lon) = block(LON, 0);
+    let (a_lat, b_lat) = block(LAT, 2);
+    // Elevator through its actuator, throttle straight into the engine state; the engine
+    // power is the controller's own estimate, not measured.
+    let predictor_lon = predictor_model(
+        "lon",
+        &a_lon,
+        &b_lon,
+        &[true, false],
+        bandwidth,
+        LON_ENGINE,
+        ts_s,
+    )?;
+    let predictor_lat = predictor_model(
+        "lat",
+        &a_lat,
+        &b_lat,
+        &[true, true],
+        bandwidth,
+        LAT.len(),
+        ts_s,
+    )?;
     Ok(Synthesis {
         trim,
         camera_body_m,
@@ -329,6 +442,8 @@ pub fn synthesize(
         lon,
         lat,
         engine_model,
+        predictor_lon,
+        predictor_lat,
         linear,
     })
 }
