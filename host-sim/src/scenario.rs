@@ -106,6 +106,10 @@ pub struct NavigationSection {
     pub model: NavModel,
     /// The INS's error figures (`docs/models.md`, "Navigation").
     pub ins: InsErrors,
+    /// The latency the controller compensates, control periods (its
+    /// `nav_latency_steps`). Absent: the INS's own `ins.latency_steps` (as installation
+    /// data would give it), 0 with ideal navigation.
+    pub compensated_latency_steps: Option<u8>,
 }
 
 /// `[gains]`: outer-loop gains.
@@ -319,6 +323,7 @@ impl Default for ScenarioFile {
             navigation: NavigationSection {
                 model: NavModel::Ins,
                 ins: InsErrors::default(),
+                compensated_latency_steps: None,
             },
             refuelling: cfg.refuelling,
             estimator: cfg.estimator,
@@ -863,7 +868,14 @@ impl ScenarioFile {
             f.receiver.xcg = uniform(SALT_XCG, r);
         }
         if let Some([lo, hi]) = d.nav_latency_steps {
-            f.navigation.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
+            // The INS's latency varies from run to run; the controller keeps the one it was
+            // configured with, the file's (an installation figure, not the run's truth).
+            let nav = &mut f.navigation;
+            if nav.model == NavModel::Ins {
+                nav.compensated_latency_steps
+                    .get_or_insert(u8::try_from(nav.ins.latency_steps).unwrap_or(u8::MAX));
+            }
+            nav.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
         }
         f
     }
@@ -888,10 +900,15 @@ impl ScenarioFile {
             Procedure::Paper => ControllerConfig::paper(),
             Procedure::Refuelling => ControllerConfig::default(),
         };
+        let nav = &self.navigation;
         let mut cfg = ControllerConfig {
             law,
             refuelling: self.refuelling,
             estimator: self.estimator,
+            nav_latency_steps: nav.compensated_latency_steps.unwrap_or(match nav.model {
+                NavModel::Ins => u8::try_from(nav.ins.latency_steps).unwrap_or(u8::MAX),
+                NavModel::Ideal => 0,
+            }),
             ..base
         };
         cfg.camera.position_body_m = self
@@ -1140,6 +1157,27 @@ mod tests {
             );
             assert_eq!(f.duration_s, 70.0, "{name}");
         }
+    }
+
+    /// The INS's latency is dispersed; the latency the controller compensates stays the
+    /// file's (the installed figure), whatever the run's INS does.
+    #[test]
+    fn a_dispersed_ins_latency_leaves_the_compensated_latency_at_the_files() {
+        let base = ScenarioFile::load("level2").unwrap();
+        assert_eq!(base.controller_config().nav_latency_steps, 1);
+        let mut seen = std::collections::BTreeSet::new();
+        for i in 0..50 {
+            let f = base.dispersed(i);
+            seen.insert(f.navigation.ins.latency_steps);
+            assert_eq!(f.controller_config().nav_latency_steps, 1, "run {i}");
+        }
+        assert_eq!(seen, [1, 2].into());
+        // Ideal navigation compensates nothing; a stated figure wins over the INS's own.
+        let paper = ScenarioFile::load("paper-level2").unwrap();
+        assert_eq!(paper.controller_config().nav_latency_steps, 0);
+        let mut stated = base.clone();
+        stated.navigation.compensated_latency_steps = Some(3);
+        assert_eq!(stated.dispersed(7).controller_config().nav_latency_steps, 3);
     }
 
     #[test]

@@ -399,10 +399,12 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
         assert_broke_away(f, reason, what);
         // With the throttle stuck nothing stops the closing: the probe passes the drogue plane
         // after the breakaway, more than 1 m from the centre (measured 1.30 m above it; the
-        // canopy's radius is 0.31 m).
+        // canopy's radius is 0.31 m). With the elevator stuck the same can happen: the
+        // latency predictor's model moves the elevator that does not move (measured: the
+        // breakaway at 6.74 s, the plane crossed at 8.44 s, 12.0 m from the centre).
         if let Some(c) = f.run.contact {
             assert!(
-                *what == "throttle stuck",
+                matches!(*what, "throttle stuck" | "elevator stuck"),
                 "{what}: reached the drogue plane {c:?}"
             );
             let at = breakaway_at(&f.run).expect("broke away");
