@@ -99,8 +99,9 @@ pub fn start() -> ! {
     let _rx = gpioa.pa10.into_alternate::<7>().internal_pull_up(true);
     USART1::enable(&mut rcc);
     USART1::reset(&mut rcc);
-    // BRR = f_pclk2 / baud with 16x oversampling (mantissa and 4-bit fraction): 91 at
-    // 84 MHz, 921,659 baud, +0.006 %.
+    // BRR = f_pclk2 / baud with 16x oversampling (mantissa and 4-bit fraction), rounded:
+    // 91 at 84 MHz, which gives 84 MHz / 91 = 923,077 baud, +0.16 % from 921,600 (a UART
+    // receiver samples mid-bit and tolerates a few percent over a 10-bit 8N1 character).
     let pclk2 = rcc.clocks.pclk2().raw();
     let brr = ((pclk2 + BAUD_BPS / 2) / BAUD_BPS) as u16;
     let link = super::usart1::init(dp.USART1, Some(brr));
