@@ -29,6 +29,10 @@
 //! prediction's steady error out with the rest of the trim (integrating the prediction
 //! instead left the tip 0.1..0.2 m off the drogue at station in calm air, measured).
 //!
+//! A held sample (the navigation rejected, `nav_held_steps`) is predicted as a fresh one of
+//! the same latency would be: the hold is short (the hold-then-breakaway limit), and the
+//! commands it flies are recorded as usual.
+//!
 //! Invariants: the latency is at most [`MAX_NAV_LATENCY_STEPS`] (the configuration is
 //! validated); with latency 0 the prediction is the sample itself, bit for bit, and nothing
 //! is recorded; for finite samples and commands every value stays finite (the model is
