@@ -112,6 +112,17 @@ pub struct NavigationSection {
     pub compensated_latency_steps: Option<u8>,
 }
 
+impl NavigationSection {
+    /// The latency the controller compensates: the stated figure, else the INS's own, 0 with
+    /// ideal navigation.
+    pub fn compensated(&self) -> u8 {
+        self.compensated_latency_steps.unwrap_or(match self.model {
+            NavModel::Ins => u8::try_from(self.ins.latency_steps).unwrap_or(u8::MAX),
+            NavModel::Ideal => 0,
+        })
+    }
+}
+
 /// `[gains]`: outer-loop gains.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -871,10 +882,7 @@ impl ScenarioFile {
             // The INS's latency varies from run to run; the controller keeps the one it was
             // configured with, the file's (an installation figure, not the run's truth).
             let nav = &mut f.navigation;
-            if nav.model == NavModel::Ins {
-                nav.compensated_latency_steps
-                    .get_or_insert(u8::try_from(nav.ins.latency_steps).unwrap_or(u8::MAX));
-            }
+            nav.compensated_latency_steps = Some(nav.compensated());
             nav.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
         }
         f
@@ -900,15 +908,11 @@ impl ScenarioFile {
             Procedure::Paper => ControllerConfig::paper(),
             Procedure::Refuelling => ControllerConfig::default(),
         };
-        let nav = &self.navigation;
         let mut cfg = ControllerConfig {
             law,
             refuelling: self.refuelling,
             estimator: self.estimator,
-            nav_latency_steps: nav.compensated_latency_steps.unwrap_or(match nav.model {
-                NavModel::Ins => u8::try_from(nav.ins.latency_steps).unwrap_or(u8::MAX),
-                NavModel::Ideal => 0,
-            }),
+            nav_latency_steps: self.navigation.compensated(),
             ..base
         };
         cfg.camera.position_body_m = self

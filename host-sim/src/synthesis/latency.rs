@@ -150,12 +150,8 @@ pub fn channel_loop<'a>(
     d: usize,
     predict: bool,
 ) -> LatencyLoop<'a> {
-    use crate::linearize::{LAT, LON};
-    let l = &truth.linear;
-    let (r, b0, actuated, t, g, model): (_, _, &[bool], _, _, _) = if lateral {
+    let (actuated, t, g, model): (&[bool], _, _, _) = if lateral {
         (
-            LAT,
-            2,
             &[true, true],
             &truth.lat,
             &design.lat,
@@ -163,18 +159,13 @@ pub fn channel_loop<'a>(
         )
     } else {
         (
-            LON,
-            0,
             &[true, false],
             &truth.lon,
             &design.lon,
             &design.predictor_lon,
         )
     };
-    let a =
-        l.a.view((r.start, r.start), (r.len(), r.len()))
-            .into_owned();
-    let b = l.b.view((r.start, b0), (r.len(), 2)).into_owned();
+    let (a, b) = super::channel_plant(&truth.linear, lateral);
     let (ac, bc) = super::with_actuators(&a, &b, actuated, bandwidth_radps);
     let (pd, pb) = super::linalg::zoh(&ac, &bc, TS_S);
     LatencyLoop {
@@ -183,7 +174,7 @@ pub fn channel_loop<'a>(
         model,
         c: &t.c,
         k: &g.k,
-        n: r.len(),
+        n: a.nrows(),
         d,
         predict,
     }

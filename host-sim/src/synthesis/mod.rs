@@ -283,6 +283,19 @@ pub struct PredictorModel {
     pub gamma: DMatrix<f64>,
 }
 
+/// One channel's block `(A, B)` of the continuous linear model: the longitudinal states
+/// with elevator and throttle, or (`lateral`) the lateral states with aileron and rudder.
+pub fn channel_plant(linear: &LinearModel, lateral: bool) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (r, u0) = if lateral { (LAT, 2) } else { (LON, 0) };
+    (
+        linear
+            .a
+            .view((r.start, r.start), (r.len(), r.len()))
+            .into_owned(),
+        linear.b.view((r.start, u0), (r.len(), 2)).into_owned(),
+    )
+}
+
 /// The continuous plant `(a, b)` with a first-order lag of bandwidth `bandwidth_radps` on
 /// each input `i` with `actuated[i]`: states `[plant; one per actuated input]`.
 pub fn with_actuators(
@@ -374,13 +387,12 @@ pub fn synthesize(
         .c_cg
         .view((2, LAT.start), (1, LAT.len()))
         .into_owned();
+    let (a_lon, b_lon) = channel_plant(&linear, false);
+    let (a_lat, b_lat) = channel_plant(&linear, true);
     let lon = design_channel(
         "lon",
-        linear
-            .a
-            .view((LON.start, LON.start), (LON.len(), LON.len()))
-            .into_owned(),
-        linear.b.view((LON.start, 0), (LON.len(), 2)).into_owned(),
+        a_lon.clone(),
+        b_lon.clone(),
         lon_c_cg.clone(),
         &lon_c_cg + lon_lever,
         &weights.lon_q,
@@ -390,11 +402,8 @@ pub fn synthesize(
     )?;
     let lat = design_channel(
         "lat",
-        linear
-            .a
-            .view((LAT.start, LAT.start), (LAT.len(), LAT.len()))
-            .into_owned(),
-        linear.b.view((LAT.start, 2), (LAT.len(), 2)).into_owned(),
+        a_lat.clone(),
+        b_lat.clone(),
         lat_c_cg.clone(),
         &lat_c_cg + lat_lever,
         &weights.lat_q,
@@ -404,17 +413,6 @@ pub fn synthesize(
     )?;
     let engine_model = engine_row(&lon)?;
     let bandwidth = model.actuators().bandwidth_radps;
-    let block = |r: std::ops::Range<usize>, b0: usize| {
-        (
-            linear
-                .a
-                .view((r.start, r.start), (r.len(), r.len()))
-                .into_owned(),
-            linear.b.view((r.start, b0), (r.len(), 2)).into_owned(),
-        )
-    };
-    let (a_lon, b_lon) = block(LON, 0);
-    let (a_lat, b_lat) = block(LAT, 2);
     // Elevator through its actuator, throttle straight into the engine state; the engine
     // power is the controller's own estimate, not measured.
     let predictor_lon = predictor_model(
