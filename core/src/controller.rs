@@ -574,15 +574,8 @@ impl Controller {
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
-        // The state feedback acts on the (late) sample predicted over the INS latency; the
-        // integrators and the mode logic read the sample itself (`predictor`).
         let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
         let x_lat = self.last_nav.lat_design_state();
-        let [theta, v, alpha, q] = self
-            .predict_lon
-            .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
-        let x_lon_now = [theta, v, alpha, q, x_lon[4]];
-        let x_lat_now = self.predict_lat.predict(x_lat);
 
         // 2. Measurement, 3. outer loop: the paper's law (its output is kept, i.e. held, until
         // the next valid one), or the refuelling procedure's drogue estimator. The mode
@@ -687,8 +680,13 @@ impl Controller {
         } else if open_loop {
             [trim[0], self.derived.open_loop_throttle, trim[2], trim[3]]
         } else {
-            let [e, th] = self.lon.control(&x_lon_now);
-            let [a, r] = self.lat.control(&x_lat_now);
+            // The state feedback acts on the (late) sample predicted over the INS latency;
+            // the integrators and the mode logic read the sample itself (`predictor`).
+            let [theta, v, alpha, q] = self
+                .predict_lon
+                .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
+            let [e, th] = self.lon.control(&[theta, v, alpha, q, x_lon[4]]);
+            let [a, r] = self.lat.control(&self.predict_lat.predict(x_lat));
             [e, th, a, r]
         };
         let (command, sat) = self.cfg.actuators.saturate(requested, trim);

@@ -141,7 +141,7 @@ pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
 
 /// `row . x`, summed left to right from `row[0] x[0]` (nalgebra's `gemv` order). `N >= 1`.
 #[inline(always)]
-fn dot<const N: usize>(row: &[f32; N], x: &[f32; N]) -> f32 {
+pub(crate) fn dot<const N: usize>(row: &[f32; N], x: &[f32; N]) -> f32 {
     let mut s = row[0] * x[0];
     for j in 1..N {
         s += row[j] * x[j];

@@ -38,6 +38,8 @@
 //! is recorded; for finite samples and commands every value stays finite (the model is
 //! stable: its eigenvalues are the airframe's and the actuators', the heading's at 1).
 
+use crate::inner::dot;
+
 /// Largest navigation latency the predictor compensates, control periods (80 ms at 50 Hz).
 pub const MAX_NAV_LATENCY_STEPS: u8 = 4;
 
@@ -59,16 +61,10 @@ pub struct PlantModel<const NM: usize, const NE: usize, const NU: usize> {
     pub gamma_e: [[f32; NU]; NE],
 }
 
-/// `a x` for a row-major `a`, each row summed left to right.
+/// `a x` for a row-major `a`, each row by [`dot`] (the inner loops' product).
 #[inline(always)]
 fn mul<const R: usize, const C: usize>(a: &[[f32; C]; R], x: &[f32; C]) -> [f32; R] {
-    core::array::from_fn(|i| {
-        let mut s = 0.0;
-        for (aij, xj) in a[i].iter().zip(x) {
-            s += aij * xj;
-        }
-        s
-    })
+    core::array::from_fn(|i| dot(&a[i], x))
 }
 
 #[inline(always)]
