@@ -371,6 +371,11 @@ impl ControllerConfig {
             ("refuelling.commit_depth_m", r.commit_depth_m),
             ("refuelling.gate_radius_m", r.gate_radius_m),
             ("refuelling.late_gate_radius_m", r.late_gate_radius_m),
+            (
+                "refuelling.late_gate_final_radius_m",
+                r.late_gate_final_radius_m,
+            ),
+            ("refuelling.late_gate_taper_m", r.late_gate_taper_m),
             ("refuelling.gate_max_horizon_s", r.gate_max_horizon_s),
             ("refuelling.capture_timeout_s", r.capture_timeout_s),
             (
@@ -414,6 +419,10 @@ impl ControllerConfig {
         require(
             "refuelling.missed_down_mps (<= velocity_limits.max_vertical_mps)",
             r.missed_down_mps <= l.max_vertical_mps,
+        )?;
+        require(
+            "refuelling.late_gate_final_radius_m (<= late_gate_radius_m)",
+            r.late_gate_final_radius_m <= r.late_gate_radius_m,
         )?;
         require(
             "refuelling.commit_depth_m (< station_depth_m)",

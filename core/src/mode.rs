@@ -43,7 +43,7 @@
 //! | terminal | probe contact | Docked |
 //! | terminal | estimated depth < `-overshoot_m` | MissedApproach(PassedDroguePlane), or Breakaway(AttemptsExhausted) |
 //! | terminal | `capture_timeout_s` elapsed | MissedApproach(CaptureTimeout), or Breakaway(AttemptsExhausted) |
-//! | terminal | valid measurement and predicted miss > `late_gate_radius_m` | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
+//! | terminal | valid measurement and predicted miss > the late gate's radius (`late_gate_final_radius_m` at the plane, rising over `late_gate_taper_m` of depth to `late_gate_radius_m`) | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
 //! | missed approach | `missed_clear_s` elapsed, valid measurement, estimated depth within `station_depth_tol_m` of the station | PreContact (next attempt) |
 //! | docked | probe contact lost | Breakaway(ContactLost) |
 //!
@@ -65,7 +65,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::estimator::DrogueEstimate;
 use crate::frames::{TargetEstimate, VelocityRe};
-use crate::num::{HypotLimit, clamp_sym};
+use crate::num::{HypotLimit, clamp_sym, max_to, min_to};
 use crate::outer::VelocityLimits;
 use crate::procedure::{Procedure, RefuellingConfig};
 
@@ -261,6 +261,19 @@ pub struct RefuelInputs {
     pub predicted_miss_m: f32,
 }
 
+impl RefuelLimits {
+    /// The late gate's radius at the estimated depth `depth_m`: `late_gate_final_radius_m`
+    /// at the plane (and past it), rising linearly to `late_gate_radius_m` at
+    /// `late_gate_taper_m`, m.
+    #[inline(always)]
+    pub fn late_gate_radius_m(&self, cfg: &RefuellingConfig, depth_m: f32) -> f32 {
+        min_to(
+            cfg.late_gate_final_radius_m + self.late_gate_slope * max_to(depth_m, 0.0),
+            cfg.late_gate_radius_m,
+        )
+    }
+}
+
 /// State of the blind phase.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerminalState {
@@ -315,6 +328,8 @@ pub struct RefuelLimits {
     station_drogue_speed_sq: f32,
     station_relative_speed_sq: f32,
     abort_offset_sq: f32,
+    /// Growth of the late gate's radius with the depth, m/m.
+    late_gate_slope: f32,
 }
 
 /// `t_s` in whole steps of `ts_s`, rounded (`as` saturates; validated times are finite).
@@ -336,6 +351,8 @@ impl RefuelLimits {
             station_drogue_speed_sq: sq(cfg.station_drogue_speed_tol_mps),
             station_relative_speed_sq: sq(cfg.station_relative_speed_tol_mps),
             abort_offset_sq: sq(cfg.abort_offset_m),
+            late_gate_slope: (cfg.late_gate_radius_m - cfg.late_gate_final_radius_m)
+                / cfg.late_gate_taper_m,
         }
     }
 }
@@ -773,7 +790,9 @@ impl ModeMachine {
                     self.no_go_to(NoGoReason::PassedDroguePlane, rc);
                 } else if self.mode_steps > rl.capture_timeout_steps {
                     self.no_go_to(NoGoReason::CaptureTimeout, rc);
-                } else if valid && inp.refuel.predicted_miss_m > rc.late_gate_radius_m {
+                } else if valid
+                    && inp.refuel.predicted_miss_m > rl.late_gate_radius_m(rc, e.depth_m)
+                {
                     self.no_go_to(NoGoReason::LateNoGo, rc);
                 }
             }
@@ -1280,5 +1299,102 @@ mod tests {
             TS,
         );
         assert_eq!(m.mode(), Mode::Standby);
+    }
+
+    /// The refuelling procedure's inputs for a drogue `offset_m` right of the tip at
+    /// `depth_m`, predicted to be missed by `predicted_miss_m`, with a valid frame.
+    fn refuel_inputs(offset_m: f32, depth_m: f32, predicted_miss_m: f32) -> ModeInputs {
+        ModeInputs {
+            refuel: RefuelInputs {
+                estimate: DrogueEstimate {
+                    offset_m: [offset_m, 0.0],
+                    mean_offset_m: [offset_m, 0.0],
+                    drogue_velocity_mps: [0.0; 3],
+                    depth_m,
+                },
+                tip_lateral_mps: [0.0; 2],
+                predicted_miss_m,
+            },
+            ..inputs()
+        }
+    }
+
+    /// A refuelling machine flown through engage, the station's dwell and the commit gate
+    /// into the capture (terminal), with its configuration and limits.
+    fn refuelling_capture() -> (ModeMachine, RefuellingConfig, ModeLimits) {
+        let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
+        let lim = ModeLimits::for_procedure(&cfg, &vel(), Procedure::Refuelling, &rc, TS);
+        let mut m = ModeMachine::default();
+        let go = |m: &mut ModeMachine, inp: ModeInputs| m.advance(&inp, &cfg, &rc, TS, &lim);
+        let station = refuel_inputs(0.0, rc.station_depth_m, f32::INFINITY);
+        go(
+            &mut m,
+            ModeInputs {
+                request: ModeRequest::Engage,
+                ..station
+            },
+        );
+        assert_eq!(m.mode(), Mode::PreContact);
+        for _ in 0..=steps(rc.station_dwell_s, TS) {
+            go(&mut m, station);
+        }
+        assert_eq!(m.mode(), Mode::Approach);
+        go(&mut m, refuel_inputs(0.0, rc.commit_depth_m, 0.0));
+        assert_eq!(m.mode(), Mode::Terminal);
+        (m, rc, lim)
+    }
+
+    #[test]
+    fn the_late_gates_radius_tapers_from_the_late_radius_to_the_final_one_at_the_plane() {
+        let rc = RefuellingConfig::default();
+        let rl = RefuelLimits::new(&rc, TS);
+        let r = |d: f32| rl.late_gate_radius_m(&rc, d);
+        assert_eq!(r(0.0), rc.late_gate_final_radius_m);
+        assert_eq!(r(-0.2), rc.late_gate_final_radius_m, "past the plane");
+        assert_eq!(r(rc.late_gate_taper_m), rc.late_gate_radius_m);
+        assert_eq!(r(2.0 * rc.late_gate_taper_m), rc.late_gate_radius_m);
+        let mid = 0.5 * (rc.late_gate_radius_m + rc.late_gate_final_radius_m);
+        assert!((r(0.5 * rc.late_gate_taper_m) - mid).abs() < 1e-6, "linear");
+        assert!(
+            rc.late_gate_final_radius_m < 0.3,
+            "inside the simulated capture radius"
+        );
+    }
+
+    #[test]
+    fn a_predicted_miss_the_late_gate_passes_far_out_is_a_late_no_go_close_in() {
+        // Between the final and the late radius: a go at the taper depth, a no-go close in.
+        let (mut m, rc, lim) = refuelling_capture();
+        let cfg = ModeConfig::default();
+        let p = 0.5 * (rc.late_gate_radius_m + rc.late_gate_final_radius_m) + 0.01;
+        m.advance(
+            &refuel_inputs(0.1, rc.late_gate_taper_m, p),
+            &cfg,
+            &rc,
+            TS,
+            &lim,
+        );
+        assert_eq!(
+            m.mode(),
+            Mode::Terminal,
+            "far out the capture can still correct it"
+        );
+        m.advance(
+            &refuel_inputs(0.1, 0.45 * rc.late_gate_taper_m, p),
+            &cfg,
+            &rc,
+            TS,
+            &lim,
+        );
+        assert_eq!(m.mode(), Mode::MissedApproach);
+        assert_eq!(m.no_go(), Some(NoGoReason::LateNoGo));
+        // Without a valid frame the late gate does not judge.
+        let (mut m, rc, lim) = refuelling_capture();
+        let blind = ModeInputs {
+            target: None,
+            ..refuel_inputs(0.1, 0.05, p)
+        };
+        m.advance(&blind, &cfg, &rc, TS, &lim);
+        assert_eq!(m.mode(), Mode::Terminal);
     }
 }

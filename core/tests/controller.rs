@@ -1011,6 +1011,17 @@ fn new_rejects_an_invalid_config_naming_the_field() {
         )
     );
     assert_eq!(rejection(|c| c.nav_latency_steps = 4), None);
+    assert_eq!(
+        rejection(|c| c.refuelling.late_gate_final_radius_m = 0.45),
+        named(
+            "refuelling.late_gate_final_radius_m (<= late_gate_radius_m)",
+            ConfigProblem::Inconsistent
+        )
+    );
+    assert_eq!(
+        rejection(|c| c.refuelling.late_gate_taper_m = 0.0),
+        named("refuelling.late_gate_taper_m", ConfigProblem::NotPositive)
+    );
     assert_eq!(rejection(|_| {}), None);
     assert_eq!(rejection(|c| c.law = OuterLaw::Pbvs), None);
 }

@@ -445,6 +445,13 @@ impl ModeModel {
         let e = out.estimate;
         let tip = tip_velocity_mps(&self.last_nav);
         let sq = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
+        // The late gate's radius: the final radius at the plane, rising linearly with the
+        // depth to the late radius at the taper depth (slope first, as the core rounds).
+        let late_gate = |depth_m: f32| {
+            let slope =
+                (rc.late_gate_radius_m - rc.late_gate_final_radius_m) / rc.late_gate_taper_m;
+            (rc.late_gate_final_radius_m + slope * depth_m.max(0.0)).min(rc.late_gate_radius_m)
+        };
         let brk = |m: &mut Self, r| {
             m.mode = Mode::Breakaway;
             m.reason = Some(r);
@@ -535,7 +542,7 @@ impl ModeModel {
                 Mode::Terminal if self.mode_steps > steps(rc.capture_timeout_s) => {
                     no_go(self, NoGoReason::CaptureTimeout)
                 }
-                Mode::Terminal if meas_ok && out.predicted_miss_m > rc.late_gate_radius_m => {
+                Mode::Terminal if meas_ok && out.predicted_miss_m > late_gate(e.depth_m) => {
                     no_go(self, NoGoReason::LateNoGo)
                 }
                 Mode::Terminal => {}

@@ -35,10 +35,11 @@ use std::io::BufWriter;
 use std::path::Path;
 
 use gif::{DisposalMethod, Encoder, Frame, Repeat};
-use ibvs_core::Mode;
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::estimator::DrogueEstimate;
+use ibvs_core::mode::RefuelLimits;
 use ibvs_core::procedure::Procedure;
+use ibvs_core::{Controller, Mode};
 use nalgebra::Vector3;
 use plotters::prelude::*;
 
@@ -768,7 +769,7 @@ fn gate_line(run: &Run, rec: &Recording, k: usize) -> Option<String> {
             miss(g.output.predicted_miss_m),
             rc.gate_radius_m,
             miss(o.predicted_miss_m),
-            rc.late_gate_radius_m
+            RefuelLimits::new(rc, Controller::PERIOD_S).late_gate_radius_m(rc, o.estimate.depth_m)
         ),
         (_, Some(reason)) => match no_go {
             Some(n) => format!(
