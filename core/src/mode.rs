@@ -261,19 +261,6 @@ pub struct RefuelInputs {
     pub predicted_miss_m: f32,
 }
 
-impl RefuelLimits {
-    /// The late gate's radius at the estimated depth `depth_m`: `late_gate_final_radius_m`
-    /// at the plane (and past it), rising linearly to `late_gate_radius_m` at
-    /// `late_gate_taper_m`, m.
-    #[inline(always)]
-    pub fn late_gate_radius_m(&self, cfg: &RefuellingConfig, depth_m: f32) -> f32 {
-        min_to(
-            cfg.late_gate_final_radius_m + self.late_gate_slope * max_to(depth_m, 0.0),
-            cfg.late_gate_radius_m,
-        )
-    }
-}
-
 /// State of the blind phase.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TerminalState {
@@ -354,6 +341,17 @@ impl RefuelLimits {
             late_gate_slope: (cfg.late_gate_radius_m - cfg.late_gate_final_radius_m)
                 / cfg.late_gate_taper_m,
         }
+    }
+
+    /// The late gate's radius at the estimated depth `depth_m`: `late_gate_final_radius_m`
+    /// at the plane (and past it), rising linearly to `late_gate_radius_m` at
+    /// `late_gate_taper_m`, m.
+    #[inline(always)]
+    pub fn late_gate_radius_m(&self, cfg: &RefuellingConfig, depth_m: f32) -> f32 {
+        min_to(
+            cfg.late_gate_final_radius_m + self.late_gate_slope * max_to(depth_m, 0.0),
+            cfg.late_gate_radius_m,
+        )
     }
 }
 
