@@ -90,6 +90,7 @@ pub mod num;
 pub mod outer;
 pub mod predictor;
 pub mod procedure;
+pub mod schedule;
 pub mod wire;
 
 pub use config::{ConfigError, ControllerConfig, OuterLaw};

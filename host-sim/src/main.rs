@@ -362,7 +362,8 @@ fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     let s = synthesis::nominal()?;
     let refuel = synthesis::nominal_refuelling()?;
     if let Some(path) = &write_core {
-        std::fs::write(path, codegen::render(&s, &refuel))
+        let schedule = synthesis::schedule::synthesize_schedule(&F16::new(NOMINAL_XCG)?)?;
+        std::fs::write(path, codegen::render(&s, &refuel, &schedule))
             .map_err(|e| format!("{}: {e}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
