@@ -166,6 +166,31 @@ fn the_summary_counts_every_run_once_and_states_its_intervals() {
 }
 
 #[test]
+fn a_level2_refuelling_campaign_ends_no_sortie_unsafe_and_docks_its_sorties() {
+    // The refuelling procedure in level II air with navigation errors. Measured over 10,000
+    // runs: 0 unsafe end states, 98.62 % docked within the sortie (70.7 % at the first
+    // attempt); here 39 of these 40 dock. At 98.62 %, three or more failed sorties in 40 have
+    // a probability of 1.6 %; any unsafe end state fails.
+    let dir = temp("level2");
+    let f = ScenarioFile::load("level2").expect("preset");
+    campaign(&f, 40, None, 2, &dir);
+    let s = summary(&dir);
+    assert_eq!(s.runs, 40);
+    assert_eq!(
+        s.unsafe_end_states, 0,
+        "a strike or an unsafe end: {:?}",
+        s.failure_causes
+    );
+    assert!(
+        s.docked >= 38,
+        "{} of 40 docked: {:?}",
+        s.docked,
+        s.failure_causes
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn an_off_nominal_cg_is_trimmed_for_and_still_docks() {
     let nominal_theta = host_sim::receiver::F16::new(0.35)
         .map(|m| m.trim_straight_level(120.0, 3000.0))
@@ -264,9 +289,11 @@ fn cli_runs_a_fifty_run_campaign_in_shards_and_merges_it() {
     assert!(line.starts_with("paper-level2: 50 runs, docked"), "{line}");
     let s = summary(&root.join("all"));
     assert_eq!(s.runs, 50);
+    // Measured: 50 of these 50; 98.96 % over 5,000 runs. At that rate three or more
+    // failures in 50 have a probability of 1.3 %.
     assert!(
-        s.success_rate >= 0.8,
-        "level II with dispersion docked 92 % over 1,000 runs; 50 here: {line}"
+        s.docked >= 48,
+        "level II with dispersion docks 98.96 % over 5,000 runs and 50 of these 50: {line}"
     );
     // Run 3's scenario file, flown by `dock`, gives run 3's record.
     let (ok, toml_text, stderr) = host_sim(&[
