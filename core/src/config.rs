@@ -274,13 +274,15 @@ impl ControllerConfig {
         check("nav_envelope.max_sideslip_rad", n.max_sideslip_rad, true)?;
         check("nav_envelope.max_speed_mps", n.max_speed_mps, true)?;
         check("nav_envelope.max_rate_radps", n.max_rate_radps, true)?;
-        // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range.
-        let trim = max_to(
-            libm::fabsf(gains::TRIM.theta_rad),
-            libm::fabsf(gains::TRIM.alpha_rad),
-        );
+        // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range, at
+        // every trim of the gain schedule (interpolated trims lie between the nodes').
+        let trim = gains::SCHEDULE
+            .iter()
+            .flatten()
+            .map(|d| max_to(libm::fabsf(d.trim.theta_rad), libm::fabsf(d.trim.alpha_rad)))
+            .fold(0.0, max_to);
         require(
-            "nav_envelope.max_angle_rad (plus the trim pitch and angle of attack, <= 0.8 rad)",
+            "nav_envelope.max_angle_rad (plus the largest trim pitch and angle of attack, <= 0.8 rad)",
             n.max_angle_rad + trim <= SIN_COS_MAX_RAD,
         )?;
         require(
@@ -528,10 +530,10 @@ impl ControllerConfig {
     }
 }
 
-/// The trim command `[elevator, throttle, aileron, rudder]` from the generated design.
+/// The trim command `[elevator, throttle, aileron, rudder]` of the single-point design (the
+/// gain schedule's node at the default flight condition).
 pub fn trim_command() -> [f32; 4] {
-    let t = &gains::TRIM;
-    [t.elevator_rad, t.throttle, t.aileron_rad, t.rudder_rad]
+    gains::TRIM.command()
 }
 
 #[cfg(test)]

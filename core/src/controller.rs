@@ -22,12 +22,13 @@
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::{ActuatorCommand, Saturation};
-use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw, trim_command};
+use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw};
 use crate::estimator::{
     DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight, TipSighting,
 };
 use crate::frames::{TargetEstimate, VelocityRe};
-use crate::gains::{self, CONTROL_PERIOD_S};
+use crate::gains::CONTROL_PERIOD_S;
+use crate::inner::TrimPoint;
 use crate::inner::{Channel, EngineEstimate};
 use crate::kinematics::{lever_arm_lat, lever_arm_lon, point_velocity_tanker_mps};
 use crate::measurement::{
@@ -43,6 +44,7 @@ use crate::num::max_to;
 use crate::outer::{self, OuterOutput};
 use crate::predictor::LatencyPredictor;
 use crate::procedure::{self, Forward, Procedure};
+use crate::schedule::{self, DesignPoint, FlightCondition, ScheduleError};
 
 /// Everything the controller reads in one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -124,6 +126,9 @@ pub struct Counters {
     pub nav_non_finite: u32,
     /// [`NavError::OutsideEnvelope`] samples.
     pub nav_outside_envelope: u32,
+    /// Steps whose latest valid navigation put the flight condition outside the docking
+    /// envelope ([`ControllerOutput::envelope_error`]).
+    pub outside_docking_envelope: u32,
     /// Steps flagged [`StatusFlags::MEASUREMENT_HELD`].
     pub measurement_held_steps: u32,
     /// Engaged steps flown on a held navigation sample.
@@ -199,6 +204,10 @@ pub struct ControllerOutput {
     /// Refuelling: the go/no-go gate's predicted radial miss at the drogue plane plus its
     /// margin of standard deviations, m (approach and terminal; infinite elsewhere).
     pub predicted_miss_m: f32,
+    /// Why the latest valid navigation's flight condition has no design (outside the
+    /// docking envelope), when it has none: an engage is refused, an engaged receiver breaks
+    /// away (`BreakawayReason::OutsideDockingEnvelope`).
+    pub envelope_error: Option<ScheduleError>,
 }
 
 /// What the step needs from the configuration, derived once at construction (the step
@@ -217,8 +226,6 @@ struct Derived {
     breakaway_slew_step_mps: f32,
     /// The same in the blind phase, m/s.
     terminal_slew_step_mps: f32,
-    /// Throttle of an open-loop breakaway (trim minus the cut).
-    open_loop_throttle: f32,
     /// The refuelling procedure's slew, per axis (right, down, forward), m/s per step.
     refuel_slew_step_mps: [f32; 3],
     /// The same in a missed approach, m/s.
@@ -251,7 +258,6 @@ impl Derived {
             slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
             breakaway_slew_step_mps: cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S,
             terminal_slew_step_mps: cfg.modes.terminal_accel_mps2 * Controller::PERIOD_S,
-            open_loop_throttle: trim_command()[1] - cfg.modes.breakaway_throttle_cut,
             refuel_slew_step_mps: {
                 let track = cfg.refuelling.track_accel_mps2 * Controller::PERIOD_S;
                 [
@@ -262,9 +268,28 @@ impl Derived {
             },
             missed_slew_step_mps: cfg.refuelling.missed_accel_mps2 * Controller::PERIOD_S,
             estimator: EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S),
-            tip: TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, gains::TRIM.theta_rad),
+            tip: TipGeometry::new(
+                &cfg.camera,
+                cfg.probe_tip_body_m,
+                schedule::DESIGN.trim.theta_rad,
+            ),
         })
     }
+}
+
+/// The gain schedule's state: the design in use and the condition it was asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Scheduled {
+    /// The flight condition of the latest valid navigation sample.
+    condition: FlightCondition,
+    /// The trim of the design in use (the last condition inside the envelope).
+    trim: TrimPoint,
+    /// Its command `[elevator, throttle, aileron, rudder]`.
+    trim_command: [f32; 4],
+    /// Throttle of an open-loop breakaway (trim minus the cut).
+    open_loop_throttle: f32,
+    /// Why `condition` has no design, when it has none.
+    error: Option<ScheduleError>,
 }
 
 /// The docking controller.
@@ -283,6 +308,7 @@ pub struct Controller {
     sequence: SequenceTracker,
     freeze: FreezeDetector,
     last_nav: NavSample,
+    scheduled: Scheduled,
     last_outer: OuterOutput,
     v_cmd: VelocityRe,
     counters: Counters,
@@ -296,7 +322,42 @@ impl Controller {
     pub fn new(cfg: ControllerConfig) -> Result<Self, ConfigError> {
         cfg.validate()?;
         let derived = Derived::new(&cfg)?;
-        let trim = trim_command();
+        let d = &schedule::DESIGN;
+        let u = d.trim.command();
+        let mut c = Self {
+            // Replaced by `set_design` below: one place builds the loops from a design.
+            lon: Channel::new(&d.lon, &[[0.0; 5]; 2], [u[0], u[1]]),
+            lat: Channel::new(&d.lat, &[[0.0; 5]; 1], [u[2], u[3]]),
+            engine: EngineEstimate::new(d.engine),
+            predict_lon: LatencyPredictor::new(d.predict_lon, cfg.nav_latency_steps),
+            predict_lat: LatencyPredictor::new(d.predict_lat, cfg.nav_latency_steps),
+            cfg,
+            derived,
+            modes: ModeMachine::default(),
+            estimator: DrogueEstimator::default(),
+            tip_sight: TipSight::new(&derived.tip),
+            sequence: SequenceTracker::default(),
+            freeze: FreezeDetector::default(),
+            last_nav: NavSample::default(),
+            scheduled: Scheduled {
+                condition: FlightCondition::default(),
+                trim: d.trim,
+                trim_command: u,
+                open_loop_throttle: 0.0,
+                error: None,
+            },
+            last_outer: OuterOutput::default(),
+            v_cmd: VelocityRe::ZERO,
+            counters: Counters::default(),
+        };
+        c.set_design(d);
+        Ok(c)
+    }
+
+    /// Flies the design `d` from the next command on (the integrators, the engine estimate
+    /// and the predictors' records carry over: they are perturbations from trim).
+    fn set_design(&mut self, d: &DesignPoint) {
+        let cfg = &self.cfg;
         // The point whose velocity the inner loops track: the camera in the paper's
         // procedure (its lever arm is where the paper's camera-position experiment acts), the
         // probe tip in the refuelling procedure (the point that must meet the drogue).
@@ -306,31 +367,38 @@ impl Controller {
         };
         // Each procedure flies its own inner-loop design (`gains`).
         let (lon, lat) = match cfg.procedure {
-            Procedure::Paper => (&gains::LON, &gains::LAT),
-            Procedure::Refuelling => (&gains::REFUEL_LON, &gains::REFUEL_LAT),
+            Procedure::Paper => (&d.lon, &d.lat),
+            Procedure::Refuelling => (&d.refuel_lon, &d.refuel_lat),
         };
-        Ok(Self {
-            lon: Channel::new(
-                lon,
-                &lever_arm_lon(tracked, gains::TRIM.theta_rad),
-                [trim[0], trim[1]],
-            ),
-            lat: Channel::new(lat, &lever_arm_lat(tracked), [trim[2], trim[3]]),
-            engine: EngineEstimate::new(gains::ENGINE_MODEL),
-            predict_lon: LatencyPredictor::new(gains::PREDICT_LON, cfg.nav_latency_steps),
-            predict_lat: LatencyPredictor::new(gains::PREDICT_LAT, cfg.nav_latency_steps),
-            cfg,
-            derived,
-            modes: ModeMachine::default(),
-            estimator: DrogueEstimator::default(),
-            tip_sight: TipSight::new(&derived.tip),
-            sequence: SequenceTracker::default(),
-            freeze: FreezeDetector::default(),
-            last_nav: NavSample::default(),
-            last_outer: OuterOutput::default(),
-            v_cmd: VelocityRe::ZERO,
-            counters: Counters::default(),
-        })
+        let u = d.trim.command();
+        self.lon
+            .set_design(lon, &lever_arm_lon(tracked, d.trim.theta_rad), [u[0], u[1]]);
+        self.lat
+            .set_design(lat, &lever_arm_lat(tracked), [u[2], u[3]]);
+        self.engine.set_model(d.engine);
+        self.predict_lon.set_model(d.predict_lon);
+        self.predict_lat.set_model(d.predict_lat);
+        self.derived.tip = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, d.trim.theta_rad);
+        self.scheduled.trim = d.trim;
+        self.scheduled.trim_command = u;
+        self.scheduled.open_loop_throttle = u[1] - cfg.modes.breakaway_throttle_cut;
+    }
+
+    /// Follows the gain schedule to a valid navigation sample's flight condition: a new
+    /// condition inside the docking envelope gets its design; outside, the design in use
+    /// stays and the error is kept (the mode logic refuses or breaks away on it). Out of
+    /// line: in steady refuelling the condition does not change.
+    #[inline(never)]
+    fn follow_schedule(&mut self, condition: FlightCondition) {
+        let s = &mut self.scheduled;
+        s.condition = condition;
+        match schedule::design_at(condition) {
+            Ok(d) => {
+                s.error = None;
+                self.set_design(&d);
+            }
+            Err(e) => s.error = Some(e),
+        }
     }
 
     /// The configuration in use.
@@ -387,7 +455,10 @@ impl Controller {
             OuterLaw::Pbvs => outer::pbvs(
                 f,
                 &self.last_nav,
-                &c.pbvs_geometry(),
+                &outer::PbvsGeometry {
+                    trim_pitch_rad: self.scheduled.trim.theta_rad,
+                    ..c.pbvs_geometry()
+                },
                 &c.pbvs,
                 &c.velocity_limits,
             ),
@@ -574,6 +645,12 @@ impl Controller {
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
+        if nav_valid && input.nav.condition != self.scheduled.condition {
+            self.follow_schedule(input.nav.condition);
+        }
+        let in_envelope = self.scheduled.error.is_none();
+        let c = &mut self.counters;
+        bump(&mut c.outside_docking_envelope, !in_envelope);
         let x_lon = self.last_nav.lon_design_state(self.engine.power_pct());
         let x_lat = self.last_nav.lat_design_state();
 
@@ -600,8 +677,11 @@ impl Controller {
             };
             (none, fresh.map(|o| o.target), None)
         } else {
-            let tip =
-                point_velocity_tanker_mps(&self.last_nav, &gains::TRIM, self.cfg.probe_tip_body_m);
+            let tip = point_velocity_tanker_mps(
+                &self.last_nav,
+                &self.scheduled.trim,
+                self.cfg.probe_tip_body_m,
+            );
             self.observe_drogue(&feature, input.measurement.probe_tip, tip)
         };
 
@@ -612,6 +692,7 @@ impl Controller {
                 request: input.request,
                 target,
                 nav_valid,
+                in_envelope,
                 probe_contact: input.probe_contact,
                 camera_fwd_mps: y_lon[1],
                 v_des: self.v_cmd,
@@ -667,7 +748,7 @@ impl Controller {
         let v_des = self.v_cmd;
 
         // 5. Inner loops and saturation.
-        let trim = trim_command();
+        let trim = self.scheduled.trim_command;
         let open_loop = mode == Mode::Breakaway && !nav_valid;
         let requested = if mode == Mode::Standby {
             // Engage assumes trimmed formation flight: integrators and engine model at zero.
@@ -678,7 +759,7 @@ impl Controller {
             self.predict_lat.reset();
             trim
         } else if open_loop {
-            [trim[0], self.derived.open_loop_throttle, trim[2], trim[3]]
+            [trim[0], self.scheduled.open_loop_throttle, trim[2], trim[3]]
         } else {
             // The state feedback acts on the (late) sample predicted over the INS latency;
             // the integrators and the mode logic read the sample itself (`predictor`).
@@ -748,6 +829,7 @@ impl Controller {
             no_go: self.modes.no_go(),
             estimate,
             predicted_miss_m: refuel.predicted_miss_m,
+            envelope_error: self.scheduled.error,
         }
     }
 }

@@ -80,6 +80,18 @@ pub struct TrimPoint {
     pub rudder_rad: f32,
 }
 
+impl TrimPoint {
+    /// The trim command `[elevator, throttle, aileron, rudder]`.
+    pub fn command(&self) -> [f32; 4] {
+        [
+            self.elevator_rad,
+            self.throttle,
+            self.aileron_rad,
+            self.rudder_rad,
+        ]
+    }
+}
+
 /// Discrete first-order engine model of the design: `P[k+1] = pole P[k] + gain dthrottle[k]`
 /// with `P` the power perturbation (percent) and `dthrottle` the throttle perturbation from
 /// trim; the engine row of the zero-order-hold discretised design plant.
@@ -105,6 +117,11 @@ impl EngineEstimate {
             model,
             power_pct: 0.0,
         }
+    }
+
+    /// Takes another model (the gain schedule's), keeping the power estimate.
+    pub fn set_model(&mut self, model: EngineModel) {
+        self.model = model;
     }
 
     /// Power perturbation, percent.
@@ -160,6 +177,19 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
             u_trim,
             q: SVector::zeros(),
         }
+    }
+
+    /// Takes another design (the gain schedule's at a new flight condition), keeping the
+    /// integrators: they hold the position error, which the design does not change.
+    pub fn set_design(
+        &mut self,
+        g: &ChannelGains<NX, NY, NU>,
+        c_lever: &[[f32; NX]; NY],
+        u_trim: [f32; NU],
+    ) {
+        let q = self.q;
+        *self = Self::new(g, c_lever, u_trim);
+        self.q = q;
     }
 
     /// Camera velocity relative to the tanker predicted from the design state, `C x`.

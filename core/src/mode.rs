@@ -10,6 +10,8 @@
 //! | any but standby | `Reset` request | Standby |
 //! | engaged (any but standby and breakaway) | `Abort` request | Breakaway(Abort) |
 //! | engaged | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
+//! | engaged | the latest valid navigation's flight condition outside the docking envelope | Breakaway(OutsideDockingEnvelope) |
+//! | standby | `Engage` request with the flight condition outside the docking envelope | Standby (refused) |
 //! | pre-contact, approach, terminal, missed approach | camera (refuelling: probe tip) forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
 //!
 //! The paper's procedure ([`Procedure::Paper`]):
@@ -138,6 +140,9 @@ pub enum BreakawayReason {
     /// Refuelling: in pre-contact the receiver ran through its station toward the drogue
     /// ([`RefuellingConfig::station_overrun_m`]) without being cleared to close.
     StationOverrun,
+    /// The flight condition left the docking envelope (the gain schedule has no design
+    /// there; [`crate::schedule::ScheduleError`] says which limit).
+    OutsideDockingEnvelope,
 }
 
 /// Why an approach of the refuelling procedure was abandoned for a missed approach.
@@ -237,6 +242,9 @@ pub struct ModeInputs {
     pub target: Option<TargetEstimate>,
     /// True when this step's navigation sample was valid.
     pub nav_valid: bool,
+    /// True when the flight condition of the latest valid navigation sample is inside the
+    /// docking envelope (the gain schedule has a design there, [`crate::schedule`]).
+    pub in_envelope: bool,
     /// Probe contact discrete.
     pub probe_contact: bool,
     /// Camera forward speed relative to the tanker from navigation, m/s.
@@ -609,6 +617,14 @@ impl ModeMachine {
             self.break_away(BreakawayReason::NavLost);
             return false;
         }
+        if !inp.in_envelope {
+            if engaged {
+                self.break_away(BreakawayReason::OutsideDockingEnvelope);
+                return false;
+            }
+            // In standby an engage is refused; in breakaway the receiver flies on.
+            return self.mode == Mode::Standby && inp.request == ModeRequest::Engage;
+        }
         if matches!(
             self.mode,
             Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
@@ -841,6 +857,7 @@ mod tests {
                 depth_m: 6.0,
             }),
             nav_valid: true,
+            in_envelope: true,
             probe_contact: false,
             camera_fwd_mps: 1.0,
             v_des: VelocityRe {
@@ -915,6 +932,60 @@ mod tests {
             "no request, nothing refused"
         );
         assert_eq!(m.mode(), Mode::Standby);
+    }
+
+    #[test]
+    fn outside_the_docking_envelope_an_engage_is_refused_and_an_engaged_receiver_breaks_away() {
+        let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
+        let outside = ModeInputs {
+            in_envelope: false,
+            ..inputs()
+        };
+        for procedure in [Procedure::Paper, Procedure::Refuelling] {
+            let lim = ModeLimits::for_procedure(&cfg, &vel(), procedure, &rc, TS);
+            let mut m = ModeMachine::default();
+            let engage = ModeInputs {
+                request: ModeRequest::Engage,
+                ..outside
+            };
+            assert!(
+                m.advance(&engage, &cfg, &rc, TS, &lim),
+                "{procedure:?}: refused"
+            );
+            assert_eq!(m.mode(), Mode::Standby);
+            assert!(
+                !m.advance(&outside, &cfg, &rc, TS, &lim),
+                "no request, nothing refused"
+            );
+            // Inside, the same request engages.
+            let inside = ModeInputs {
+                in_envelope: true,
+                ..engage
+            };
+            assert!(!m.advance(&inside, &cfg, &rc, TS, &lim));
+            let engaged_mode = m.mode();
+            assert_ne!(engaged_mode, Mode::Standby, "{procedure:?}");
+            // Leaving the envelope engaged breaks away at once, with the reason named.
+            m.advance(&outside, &cfg, &rc, TS, &lim);
+            assert_eq!(
+                (m.mode(), m.breakaway_reason()),
+                (
+                    Mode::Breakaway,
+                    Some(BreakawayReason::OutsideDockingEnvelope)
+                ),
+                "{procedure:?} from {engaged_mode:?}"
+            );
+            // The breakaway is latched: back inside, it stays until a reset.
+            m.advance(&inputs(), &cfg, &rc, TS, &lim);
+            assert_eq!(m.mode(), Mode::Breakaway);
+        }
+        // From the capture, too.
+        let mut m = terminal();
+        m.update(&outside, &cfg, &vel(), TS);
+        assert_eq!(
+            m.breakaway_reason(),
+            Some(BreakawayReason::OutsideDockingEnvelope)
+        );
     }
 
     #[test]

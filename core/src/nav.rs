@@ -1,12 +1,15 @@
 //! Navigation input: the receiver's perturbation state from trim, and its validation.
 //!
 //! The states are those of the paper's eq. (1), split into the longitudinal and lateral
-//! channels, each a perturbation from the trim point in [`crate::gains::TRIM`]. Angles are
-//! relative to the trim attitude (heading relative to the tanker's track); speed relative to
-//! the trim (= tanker) ground speed.
+//! channels, each a perturbation from the receiver's trim at the sample's
+//! [`FlightCondition`] (the refuelling track's true airspeed and altitude; at the default
+//! condition, the trim point in [`crate::gains::TRIM`]). Angles are relative to the trim
+//! attitude (heading relative to the tanker's track); speed relative to the trim (= tanker)
+//! speed. The condition selects the inner loops' design from the gain schedule.
 //!
-//! Invariant: a sample that passes [`NavSample::validate`] is finite and inside the envelope
-//! where the linear design is meaningful ([`NavEnvelope`]).
+//! Invariant: a sample that passes [`NavSample::validate`] is finite (its condition too) and
+//! inside the envelope where the linear design is meaningful ([`NavEnvelope`]); whether the
+//! condition is inside the docking envelope is the schedule's question, not this one.
 
 use serde::{Deserialize, Serialize};
 
@@ -46,7 +49,34 @@ pub struct LatNav {
     pub r_radps: f32,
 }
 
-/// One navigation sample: both channels' perturbation states.
+/// The flight condition the receiver is trimmed at: the refuelling track's (the tanker's)
+/// true airspeed and altitude, the gain schedule's variables ([`crate::schedule`]).
+///
+/// True airspeed and altitude, because the docking envelope is stated in them, the tanker's
+/// refuelling track is flown at them, and air data gives both directly. The gains vary
+/// mostly with dynamic pressure, but a grid in dynamic pressure is not rectangular in the
+/// envelope, and the kinematic terms of the output matrix follow the true airspeed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlightCondition {
+    /// True airspeed, m/s.
+    pub true_airspeed_mps: f32,
+    /// Altitude, m.
+    pub altitude_m: f32,
+}
+
+impl Default for FlightCondition {
+    /// The single-point design's condition ([`crate::gains::TRIM`]).
+    fn default() -> Self {
+        Self {
+            true_airspeed_mps: crate::gains::TRIM.speed_mps,
+            altitude_m: crate::gains::TRIM.altitude_m,
+        }
+    }
+}
+
+/// One navigation sample: both channels' perturbation states from the receiver's trim at
+/// the flight condition it carries.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NavSample {
@@ -54,13 +84,15 @@ pub struct NavSample {
     pub lon: LonNav,
     /// Lateral channel.
     pub lat: LatNav,
+    /// The flight condition the perturbations are from (the gain schedule's variables).
+    pub condition: FlightCondition,
 }
 
 /// Why a navigation sample was not used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NavError {
-    /// A state is NaN or infinite.
+    /// A state or the flight condition is NaN or infinite.
     NonFinite,
     /// A state is outside [`NavEnvelope`]: the linear design does not hold there.
     OutsideEnvelope,
@@ -158,9 +190,12 @@ impl NavSample {
             | env.sideslip.wrapping_sub(a[9]) // beta
             | env.rate.wrapping_sub(a[10]) // p
             | env.rate.wrapping_sub(a[11]); // r
+        let c = &self.condition;
         let unchecked_non_finite = MAX_FINITE_BITS.wrapping_sub(a[0]) // x
             | MAX_FINITE_BITS.wrapping_sub(a[1]) // h
-            | MAX_FINITE_BITS.wrapping_sub(a[6]); // y
+            | MAX_FINITE_BITS.wrapping_sub(a[6]) // y
+            | MAX_FINITE_BITS.wrapping_sub(crate::num::abs_bits(c.true_airspeed_mps))
+            | MAX_FINITE_BITS.wrapping_sub(crate::num::abs_bits(c.altitude_m));
         if (outside | unchecked_non_finite) & SIGN == 0 {
             Ok(())
         } else {
@@ -173,9 +208,14 @@ impl NavSample {
     #[cold]
     #[inline(never)]
     fn rejection(&self) -> NavError {
-        let non_finite = self.as_array().iter().fold(0, |acc, &v| {
-            acc | MAX_FINITE_BITS.wrapping_sub(crate::num::abs_bits(v))
-        });
+        let c = &self.condition;
+        let non_finite = self
+            .as_array()
+            .iter()
+            .chain(&[c.true_airspeed_mps, c.altitude_m])
+            .fold(0, |acc, &v| {
+                acc | MAX_FINITE_BITS.wrapping_sub(crate::num::abs_bits(v))
+            });
         if non_finite & SIGN != 0 {
             NavError::NonFinite
         } else {
@@ -202,7 +242,7 @@ impl NavSample {
         ]
     }
 
-    /// The inverse of [`NavSample::as_array`].
+    /// The inverse of [`NavSample::as_array`], at the default [`FlightCondition`].
     pub fn from_array(a: [f32; 12]) -> Self {
         let [x_fwd_m, h_up_m, theta_rad, v_mps, alpha_rad, q_radps] =
             [a[0], a[1], a[2], a[3], a[4], a[5]];
@@ -225,12 +265,17 @@ impl NavSample {
                 p_radps,
                 r_radps,
             },
+            condition: FlightCondition::default(),
         }
     }
 
     /// Checks the sample is finite and inside `env`.
     pub fn validate(&self, env: &NavEnvelope) -> Result<(), NavError> {
-        if !self.as_array().iter().all(|v| v.is_finite()) {
+        let c = &self.condition;
+        if !(self.as_array().iter().all(|v| v.is_finite())
+            && c.true_airspeed_mps.is_finite()
+            && c.altitude_m.is_finite())
+        {
             return Err(NavError::NonFinite);
         }
         let (lo, la) = (&self.lon, &self.lat);
@@ -295,6 +340,29 @@ mod tests {
         let mut fast = ok;
         fast.lon.v_mps = -31.0;
         assert_eq!(fast.validate(&env), Err(NavError::OutsideEnvelope));
+        // The scheduling variables are checked for finiteness (by both checks), not for
+        // the docking envelope: that is the schedule's answer.
+        let bits = EnvelopeBits::new(&env).unwrap();
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut s = ok;
+            s.condition.true_airspeed_mps = bad;
+            assert_eq!(
+                (s.validate(&env), s.check(&bits)),
+                (Err(NavError::NonFinite), Err(NavError::NonFinite))
+            );
+            let mut s = ok;
+            s.condition.altitude_m = bad;
+            assert_eq!(
+                (s.validate(&env), s.check(&bits)),
+                (Err(NavError::NonFinite), Err(NavError::NonFinite))
+            );
+        }
+        let mut far = ok;
+        far.condition = FlightCondition {
+            true_airspeed_mps: 900.0,
+            altitude_m: -50.0,
+        };
+        assert_eq!((far.validate(&env), far.check(&bits)), (Ok(()), Ok(())));
     }
 
     #[test]
@@ -372,6 +440,7 @@ mod tests {
                 p_radps: 4.0,
                 r_radps: 5.0,
             },
+            condition: FlightCondition::default(),
         };
         assert_eq!(s.lon_design_state(7.0), [1.0, 2.0, 3.0, 4.0, 7.0]);
         assert_eq!(s.lat_design_state(), [1.0, 2.0, 3.0, 4.0, 5.0]);

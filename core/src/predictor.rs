@@ -102,6 +102,13 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
         }
     }
 
+    /// Takes another model (the gain schedule's at a new flight condition), keeping the
+    /// recorded commands and unmeasured states: they are perturbations from trim, and the
+    /// models differ little between neighbouring conditions.
+    pub fn set_model(&mut self, model: PlantModel<NM, NE, NU>) {
+        self.model = model;
+    }
+
     /// The latency compensated, control periods.
     pub fn latency_steps(&self) -> usize {
         self.latency

@@ -22,26 +22,15 @@
 //! every blended number lies between its four nodes' values; a condition that is not finite
 //! or is outside the grid (the docking envelope) has no design: a named [`ScheduleError`].
 
-use crate::gains::{SCHEDULE, SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
+use serde::{Deserialize, Serialize};
+
+use crate::gains::{self, SCHEDULE, SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
 use crate::inner::{ChannelGains, EngineModel, TrimPoint};
+pub use crate::nav::FlightCondition;
 use crate::predictor::PlantModel;
 
-/// The scheduling variables: the flight condition the receiver is trimmed at.
-///
-/// True airspeed and altitude, because the docking envelope is stated in them, the tanker's
-/// refuelling track is flown at them, and air data gives both directly. The gains vary
-/// mostly with dynamic pressure, but a grid in dynamic pressure is not rectangular in the
-/// envelope, and the kinematic terms of the output matrix follow the true airspeed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FlightCondition {
-    /// True airspeed, m/s.
-    pub true_airspeed_mps: f32,
-    /// Altitude, m.
-    pub altitude_m: f32,
-}
-
 /// Why the schedule has no design for a condition.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ScheduleError {
     /// The airspeed or the altitude is NaN or infinite.
@@ -89,6 +78,27 @@ pub struct DesignPoint {
     pub predict_lon: PlantModel<4, 2, 2>,
     /// The latency predictor's lateral plant.
     pub predict_lat: PlantModel<5, 2, 2>,
+}
+
+/// The single-point design of [`crate::gains`] as a [`DesignPoint`]: the controller's
+/// design until a navigation sample names another condition, and the schedule's node at
+/// the default [`FlightCondition`] (tested).
+pub const DESIGN: DesignPoint = DesignPoint {
+    trim: gains::TRIM,
+    engine: gains::ENGINE_MODEL,
+    lon: gains::LON,
+    lat: gains::LAT,
+    refuel_lon: gains::REFUEL_LON,
+    refuel_lat: gains::REFUEL_LAT,
+    predict_lon: gains::PREDICT_LON,
+    predict_lat: gains::PREDICT_LAT,
+};
+
+impl Default for DesignPoint {
+    /// [`DESIGN`], the single-point design.
+    fn default() -> Self {
+        DESIGN
+    }
 }
 
 /// A value the schedule can blend: the four corners of a cell and their weights.
@@ -251,7 +261,6 @@ pub fn design_at(condition: FlightCondition) -> Result<DesignPoint, ScheduleErro
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gains;
 
     fn at(v: f32, h: f32) -> Result<DesignPoint, ScheduleError> {
         design_at(FlightCondition {
@@ -271,6 +280,7 @@ mod tests {
 
     #[test]
     fn the_single_point_design_is_the_schedules_node_at_its_condition() {
+        assert_eq!(design_at(FlightCondition::default()), Ok(DESIGN));
         let d = at(gains::TRIM.speed_mps, gains::TRIM.altitude_m).unwrap();
         assert_eq!(d.trim, gains::TRIM);
         assert_eq!(d.engine, gains::ENGINE_MODEL);

@@ -18,7 +18,8 @@ use ibvs_core::controller::StatusFlags;
 use ibvs_core::frames::{TargetEstimate, VelocityRe};
 use ibvs_core::gains::TRIM;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
-use ibvs_core::nav::{NavError, NavSample};
+use ibvs_core::nav::{FlightCondition, NavError, NavSample};
+use ibvs_core::schedule::{ScheduleError, design_at};
 use ibvs_core::wire::{
     Downlink, LinkCounters, MAX_FRAME_LEN, Uplink, decode_downlink, decode_uplink, encode_downlink,
     encode_uplink,
@@ -1051,7 +1052,7 @@ fn new_rejects_angles_outside_the_range_of_the_steps_trigonometry() {
     assert_eq!(
         rejection(|c| c.nav_envelope.max_angle_rad = 0.75),
         inconsistent(
-            "nav_envelope.max_angle_rad (plus the trim pitch and angle of attack, <= 0.8 rad)"
+            "nav_envelope.max_angle_rad (plus the largest trim pitch and angle of attack, <= 0.8 rad)"
         )
     );
     assert_eq!(
@@ -1153,4 +1154,115 @@ fn reset_forgets_the_frame_sequence_so_a_restarted_camera_can_engage() {
     let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
     assert_eq!(out.measurement_error, None);
     assert_eq!(out.mode, Mode::Approach);
+}
+
+/// A flight condition.
+fn condition(v: f32, h: f32) -> FlightCondition {
+    FlightCondition {
+        true_airspeed_mps: v,
+        altitude_m: h,
+    }
+}
+
+#[test]
+fn the_controller_flies_the_gain_schedules_design_at_the_navigations_flight_condition() {
+    // In standby the command is the trim command: the scheduled trim's at 150 m/s, 6,000 m,
+    // not the single-point design's; back at the default condition, the design's again.
+    let mut rig = Rig::new(config());
+    assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+    let elsewhere = condition(150.0, 6000.0);
+    let design = design_at(elsewhere).expect("inside the envelope");
+    rig.nav.condition = elsewhere;
+    let out = rig.step_with(MID, |_| {});
+    assert_eq!(out.command.as_array(), design.trim.command());
+    assert_ne!(design.trim.command(), trim(), "another trim there");
+    assert_eq!(out.envelope_error, None);
+    // Engaged there, the loops run on the scheduled gains: the same state and frame give
+    // another command than the single-point design's.
+    let engaged_at = |c: FlightCondition| {
+        let mut nav = perturbed_nav();
+        nav.condition = c;
+        let mut rig = Rig::engaged(config(), nav, MID);
+        rig.step_with(MID, |_| {}).command.as_array()
+    };
+    let (here, there) = (
+        engaged_at(FlightCondition::default()),
+        engaged_at(elsewhere),
+    );
+    assert!(
+        here.iter().zip(&there).all(|(a, b)| a != b),
+        "{here:?} vs {there:?}"
+    );
+    rig.nav.condition = FlightCondition::default();
+    assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+}
+
+#[test]
+fn outside_the_docking_envelope_an_engage_is_refused_with_the_limit_named() {
+    for (c, why) in [
+        (condition(95.0, 3000.0), ScheduleError::AirspeedLow),
+        (condition(175.0, 3000.0), ScheduleError::AirspeedHigh),
+        (condition(120.0, 400.0), ScheduleError::AltitudeLow),
+        (condition(120.0, 8100.0), ScheduleError::AltitudeHigh),
+    ] {
+        let mut rig = Rig::new(config());
+        rig.nav.condition = c;
+        let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+        assert_eq!(
+            (out.mode, out.envelope_error),
+            (Mode::Standby, Some(why)),
+            "{c:?}"
+        );
+        assert!(out.status.contains(StatusFlags::ENGAGE_REFUSED), "{c:?}");
+        let n = rig.ctl.counters();
+        assert_eq!(
+            (n.engage_refused, n.outside_docking_envelope),
+            (1, 1),
+            "{c:?}"
+        );
+        // The trim flown is the last design's (here the single-point design's).
+        assert_eq!(out.command.as_array(), trim());
+    }
+}
+
+#[test]
+fn leaving_the_docking_envelope_engaged_breaks_away_on_the_last_design() {
+    let mut rig = Rig::engaged(config(), perturbed_nav(), MID);
+    rig.nav.condition = condition(120.0, 8500.0);
+    let out = rig.step_with(MID, |_| {});
+    assert_eq!(
+        (out.mode, out.breakaway_reason, out.envelope_error),
+        (
+            Mode::Breakaway,
+            Some(BreakawayReason::OutsideDockingEnvelope),
+            Some(ScheduleError::AltitudeHigh)
+        )
+    );
+    // Navigation is valid: the breakaway is flown closed loop, not open loop.
+    assert!(!out.status.contains(StatusFlags::OPEN_LOOP));
+    assert!(out.command.as_array().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn a_non_finite_flight_condition_is_a_navigation_error_held_then_a_breakaway() {
+    let cfg = config();
+    let mut rig = Rig::engaged(cfg, perturbed_nav(), MID);
+    rig.nav.condition = condition(f32::NAN, 3000.0);
+    for _ in 0..cfg.modes.hold_limit_steps {
+        let out = rig.step_with(MID, |_| {});
+        assert_eq!(
+            (out.mode, out.nav_error),
+            (Mode::Approach, Some(NavError::NonFinite))
+        );
+        assert!(out.status.contains(StatusFlags::NAV_HELD));
+        assert_eq!(
+            out.envelope_error, None,
+            "the schedule keeps the last valid condition"
+        );
+    }
+    let out = rig.step_with(MID, |_| {});
+    assert_eq!(
+        (out.mode, out.breakaway_reason),
+        (Mode::Breakaway, Some(BreakawayReason::NavLost))
+    );
 }

@@ -26,12 +26,13 @@
 
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::estimator::TipGeometry;
-use ibvs_core::gains::{LAT, LON, TRIM};
-use ibvs_core::inner::Channel;
+use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, TRIM};
+use ibvs_core::inner::{Channel, TrimPoint};
 use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::mode::ModeConfig;
-use ibvs_core::nav::NavSample;
+use ibvs_core::nav::{FlightCondition, NavSample};
+use ibvs_core::schedule::{DesignPoint, design_at};
 use ibvs_core::wire::{FrameDecoder, MAX_FRAME_LEN, Uplink, encode_uplink};
 use ibvs_core::{
     BreakawayReason, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
@@ -63,6 +64,26 @@ fn frame_content() -> impl Strategy<Value = (bool, f32, f32, f32)> {
 /// limit is reached), small perturbations, closing around the overspeed limit, or arbitrary
 /// bits.
 fn nav() -> impl Strategy<Value = NavSample> {
+    (nav_states(), condition()).prop_map(|(n, condition)| NavSample { condition, ..n })
+}
+
+/// The flight condition: mostly the design's, sometimes elsewhere inside the docking
+/// envelope, outside it, or arbitrary bits.
+fn condition() -> impl Strategy<Value = FlightCondition> {
+    let at = |(v, h)| FlightCondition {
+        true_airspeed_mps: v,
+        altitude_m: h,
+    };
+    prop_oneof![
+        12 => Just(FlightCondition::default()),
+        1 => (100.0_f32..170.0, 500.0_f32..8000.0).prop_map(at),
+        1 => (0.0_f32..400.0, -1000.0_f32..20_000.0).prop_map(at),
+        1 => (bits(), bits()).prop_map(at),
+    ]
+}
+
+/// The navigation states (at the design's condition).
+fn nav_states() -> impl Strategy<Value = NavSample> {
     prop_oneof![
         3 => Just(NavSample::default()),
         2 => prop::array::uniform12(-0.2_f32..0.2).prop_map(NavSample::from_array),
@@ -166,6 +187,9 @@ enum Segment {
     NavBad(usize),
     /// Navigation reporting the receiver 2.5 m/s faster than the tanker for `n` steps.
     NavFast(usize),
+    /// Navigation at another flight condition `(airspeed, altitude)` for `n` steps: inside
+    /// the docking envelope or not.
+    Condition(f32, f32, usize),
     /// The probe-contact discrete for `n` steps (with the last frame content).
     Contact(usize),
     /// A request, once.
@@ -177,13 +201,15 @@ fn segment() -> impl Strategy<Value = Segment> {
     prop_oneof![
         6 => (small(), small(), 30_usize..120).prop_map(|(x, y, n)| Segment::Station(x, y, n)),
         4 => (-0.3_f32..0.6, small(), small()).prop_map(|(end, x, y)| Segment::Close(end, x, y)),
-        2 => (-0.3_f32..0.0, -0.4_f32..0.4, -0.4_f32..0.4)
+        2 => (-0.6_f32..0.0, -0.4_f32..0.4, -0.4_f32..0.4)
             .prop_map(|(end, x, y)| Segment::Close(end, x, y)),
         1 => (1_usize..40).prop_map(Segment::Off),
         1 => (100_usize..200).prop_map(Segment::Hold),
         1 => prop_oneof![1_usize..10, 20_usize..200].prop_map(Segment::Lost),
         1 => prop_oneof![1_usize..5, 20_usize..40].prop_map(Segment::NavBad),
         1 => (1_usize..5).prop_map(Segment::NavFast),
+        1 => (prop_oneof![95.0_f32..175.0, Just(150.0)], prop_oneof![400.0_f32..8100.0, Just(6000.0)], 1_usize..60)
+            .prop_map(|(v, h, n)| Segment::Condition(v, h, n)),
         2 => (1_usize..80).prop_map(Segment::Contact),
         1 => request().prop_map(Segment::Request),
     ]
@@ -259,6 +285,17 @@ fn sortie_sequence(cfg: ControllerConfig) -> impl Strategy<Value = Vec<Controlle
                         edit(&mut out, &|i| i.nav.lon.v_mps = 2.5);
                     }
                 }
+                Segment::Condition(v, h, n) => {
+                    for _ in 0..n {
+                        push(&mut out, true, x, y, depth);
+                        edit(&mut out, &|i| {
+                            i.nav.condition = FlightCondition {
+                                true_airspeed_mps: v,
+                                altitude_m: h,
+                            }
+                        });
+                    }
+                }
                 Segment::Contact(n) => {
                     for _ in 0..n {
                         push(&mut out, true, x, y, depth);
@@ -297,6 +334,10 @@ struct ModeModel {
     terminal_steps: u32,
     /// The last valid navigation sample (the controller flies on it while navigation is bad).
     last_nav: NavSample,
+    /// Its flight condition is inside the docking envelope.
+    in_envelope: bool,
+    /// The gain schedule's design in use: at the last condition inside the envelope.
+    design: DesignPoint,
     /// Refuelling: the attempt, the last no-go, steps stable at the station, steps in the
     /// mode, steps since engage.
     attempt: u8,
@@ -321,6 +362,16 @@ impl ModeModel {
             self.nav_invalid = 0;
         } else {
             self.nav_invalid = self.nav_invalid.saturating_add(1);
+        }
+        let (c, v, h) = (
+            &self.last_nav.condition,
+            &SCHEDULE_SPEEDS_MPS,
+            &SCHEDULE_ALTITUDES_M,
+        );
+        self.in_envelope = (v[0]..=v[v.len() - 1]).contains(&c.true_airspeed_mps)
+            && (h[0]..=h[h.len() - 1]).contains(&c.altitude_m);
+        if self.in_envelope {
+            self.design = design_at(*c).map_err(|e| format!("inside, yet {e}"))?;
         }
         match cfg.procedure {
             Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg)),
@@ -352,8 +403,15 @@ impl ModeModel {
             brk(BreakawayReason::Abort)
         } else if engaged && self.nav_invalid > cfg.hold_limit_steps {
             brk(BreakawayReason::NavLost)
+        } else if !self.in_envelope {
+            if engaged {
+                brk(BreakawayReason::OutsideDockingEnvelope)
+            } else {
+                refused = before == Mode::Standby && input.request == ModeRequest::Engage;
+                stay
+            }
         } else if matches!(before, Mode::Approach | Mode::Terminal)
-            && camera_fwd_mps(&self.last_nav) > cfg.overspeed_mps
+            && camera_fwd_mps(&self.last_nav, &self.design.trim) > cfg.overspeed_mps
         {
             brk(BreakawayReason::Overspeed)
         } else {
@@ -443,7 +501,7 @@ impl ModeModel {
         let engaged = !matches!(self.mode, Mode::Standby | Mode::Breakaway);
         let mut refused = false;
         let e = out.estimate;
-        let tip = tip_velocity_mps(&self.last_nav);
+        let tip = tip_velocity_mps(&self.last_nav, &self.design);
         let sq = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
         // The late gate's radius: the final radius at the plane, rising linearly with the
         // depth to the late radius at the taper depth (slope first, as the core rounds).
@@ -470,6 +528,12 @@ impl ModeModel {
             brk(self, BreakawayReason::Abort);
         } else if engaged && self.nav_invalid > md.hold_limit_steps {
             brk(self, BreakawayReason::NavLost);
+        } else if !self.in_envelope {
+            if engaged {
+                brk(self, BreakawayReason::OutsideDockingEnvelope);
+            } else {
+                refused = self.mode == Mode::Standby && input.request == ModeRequest::Engage;
+            }
         } else if matches!(
             self.mode,
             Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
@@ -585,10 +649,14 @@ impl ModeModel {
 /// The probe tip's velocity relative to the tanker, `[right, down, forward]`, for a
 /// navigation sample, as the refuelling procedure's inner loops output it (`C x` with the
 /// lever arm at the probe tip; the engine power column is zero).
-fn tip_velocity_mps(nav: &NavSample) -> [f32; 3] {
+fn tip_velocity_mps(nav: &NavSample, design: &DesignPoint) -> [f32; 3] {
     let tip = ControllerConfig::default().probe_tip_body_m;
-    let lon = Channel::new(&LON, &lever_arm_lon(tip, TRIM.theta_rad), [0.0; 2]);
-    let lat = Channel::new(&LAT, &lever_arm_lat(tip), [0.0; 2]);
+    let lon = Channel::new(
+        &design.lon,
+        &lever_arm_lon(tip, design.trim.theta_rad),
+        [0.0; 2],
+    );
+    let lat = Channel::new(&design.lat, &lever_arm_lat(tip), [0.0; 2]);
     let [down, fwd] = lon.output(&nav.lon_design_state(0.0));
     let [right] = lat.output(&nav.lat_design_state());
     [right, down, fwd]
@@ -598,10 +666,14 @@ fn tip_velocity_mps(nav: &NavSample) -> [f32; 3] {
 /// airspeed perturbation plus the pitch rate times the lever arm of the default camera
 /// position (`docs/conventions.md`; the generated output row is `[0, 1, 0, 0, 0]` at the CG).
 /// Single-precision, one rounding, as the controller's `C x` gives it.
-fn camera_fwd_mps(nav: &NavSample) -> f32 {
+fn camera_fwd_mps(nav: &NavSample, trim: &TrimPoint) -> f32 {
     let cam = ControllerConfig::paper().camera.position_body_m;
-    let fwd_per_q = lever_arm_lon(cam, TRIM.theta_rad)[1][3];
-    assert_eq!(LON.c_cg[1], [0.0, 1.0, 0.0, 0.0, 0.0], "output row changed");
+    let fwd_per_q = lever_arm_lon(cam, trim.theta_rad)[1][3];
+    assert_eq!(
+        ibvs_core::gains::LON.c_cg[1],
+        [0.0, 1.0, 0.0, 0.0, 0.0],
+        "output row changed"
+    );
     nav.lon.v_mps + fwd_per_q * nav.lon.q_radps
 }
 
@@ -810,6 +882,7 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
         "AttemptsExhausted",
         "SortieTimeout",
         "StationOverrun",
+        "OutsideDockingEnvelope",
         "ContactLost",
         "Abort",
     ];

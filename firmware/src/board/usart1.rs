@@ -4,7 +4,7 @@
 //! Place in the data flow: the USART1 interrupt moves each received byte into [`RX_QUEUE_LEN`]
 //! bytes of queue; the application drains it through [`embedded_io::Read`] and writes command
 //! frames through [`embedded_io::Write`] (blocking on TXE, one byte at a time: at 921,600 baud
-//! the largest command frame (310 bytes) takes 3.4 ms of the 20 ms period; DMA would free the CPU for that
+//! the largest command frame (317 bytes) takes 3.4 ms of the 20 ms period; DMA would free the CPU for that
 //! time). Under QEMU the baud rate is ignored and a write is immediate.
 //!
 //! Invariants: a received byte is never dropped silently: a hardware error (overrun, noise,

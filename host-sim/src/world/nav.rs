@@ -21,7 +21,7 @@
 //! every random draw comes from the run's seed, the same number per sample, so a run is
 //! reproducible and the errors do not depend on what the controller does.
 
-use ibvs_core::nav::{LatNav, LonNav, NavSample};
+use ibvs_core::nav::{FlightCondition, LatNav, LonNav, NavSample};
 use nalgebra::{Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -126,8 +126,13 @@ pub struct PerfectNav {
 }
 
 /// The sample of design coordinates `xi` and CG position `pos` (tanker frame, relative to the
-/// start) against the trim's `trim_xi`.
-fn nav_sample(xi: &[f64; N_DESIGN], trim_xi: &[f64; N_DESIGN], pos: &Vector3<f64>) -> NavSample {
+/// start) against the trim's `trim_xi`, at the flight condition of the tanker's track.
+fn nav_sample(
+    xi: &[f64; N_DESIGN],
+    trim_xi: &[f64; N_DESIGN],
+    pos: &Vector3<f64>,
+    tanker: &Tanker,
+) -> NavSample {
     let d: [f32; N_DESIGN] = core::array::from_fn(|i| (xi[i] - trim_xi[i]) as f32);
     NavSample {
         lon: LonNav {
@@ -146,6 +151,10 @@ fn nav_sample(xi: &[f64; N_DESIGN], trim_xi: &[f64; N_DESIGN], pos: &Vector3<f64
             p_radps: d[8],
             r_radps: d[9],
         },
+        condition: FlightCondition {
+            true_airspeed_mps: tanker.speed_mps as f32,
+            altitude_m: tanker.altitude_m as f32,
+        },
     }
 }
 
@@ -161,7 +170,7 @@ impl PerfectNav {
     /// The sample for state `x` at time `t_s`.
     pub fn sample(&self, tanker: &Tanker, x: &ReceiverState, t_s: f64) -> NavSample {
         let pos = point_in_tanker_m(tanker, x, &Vector3::zeros(), t_s) - self.start_cg_tanker_m;
-        nav_sample(&design_coordinates(x), &self.trim_xi, &pos)
+        nav_sample(&design_coordinates(x), &self.trim_xi, &pos, tanker)
     }
 }
 
@@ -246,7 +255,12 @@ impl InsNav {
         let pos = point_in_tanker_m(tanker, x, &Vector3::zeros(), t_s)
             - self.perfect.start_cg_tanker_m
             + pos_noise;
-        nav_sample(&design_coordinates(&measured), &self.perfect.trim_xi, &pos)
+        nav_sample(
+            &design_coordinates(&measured),
+            &self.perfect.trim_xi,
+            &pos,
+            tanker,
+        )
     }
 
     /// The sample the controller receives at `t_s`: the one measured `latency_steps` samples
