@@ -55,7 +55,8 @@ use serde::{Deserialize, Serialize};
 /// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
 /// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
-/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]).
+/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]);
+/// a run's gusts convect at its own flight condition's airspeed.
 pub const TRIM_AIRSPEED_MPS: f64 = 120.0;
 /// Preset "level I" (the paper's light turbulence, about 5 ft/s peak): sigma, m/s
 /// (judgement, docs/models.md, "Turbulence": peaks near 3 sigma).
