@@ -151,6 +151,11 @@ pub struct TurbulenceSection {
     /// RMS gust speed, m/s; overrides the preset when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sigma_mps: Option<f64>,
+    /// Probability of exceedance: the RMS gust speed is MIL-F-8785C's for it at the flight
+    /// altitude ([`crate::world::turbulence::mil_f_8785c_sigma_mps`]); overrides the preset,
+    /// overridden by `sigma_mps` (so a dispersed intensity wins).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exceedance_probability: Option<f64>,
 }
 
 /// A section with just an on/off switch (`[bow_wave]`, `[tanker_wake]`).
@@ -344,6 +349,7 @@ impl Default for ScenarioFile {
             turbulence: TurbulenceSection {
                 preset: TurbulencePreset::None,
                 sigma_mps: None,
+                exceedance_probability: None,
             },
             bow_wave: Switch { enabled: false },
             tanker_wake: Switch { enabled: true },
@@ -747,6 +753,15 @@ impl ScenarioFile {
         if let Some(s) = self.turbulence.sigma_mps {
             range("turbulence.sigma_mps", s, 0.0, 10.0, "0..=10")?;
         }
+        if let Some(p) = self.turbulence.exceedance_probability
+            && crate::world::turbulence::mil_f_8785c_sigma_mps(self.flight.altitude_m, p).is_none()
+        {
+            return Err(ScenarioError::OutOfRange {
+                key: "turbulence.exceedance_probability",
+                value: p.to_string(),
+                allowed: "one of MIL-F-8785C's tabulated 0.2, 0.1, 1e-2, 1e-3, 1e-4, 1e-5",
+            });
+        }
         range(
             "camera.mount_pitch_error_deg",
             self.camera.mount_pitch_error_deg,
@@ -982,12 +997,18 @@ impl ScenarioFile {
         f
     }
 
-    /// RMS gust speed of the run, m/s: `turbulence.sigma_mps` as given, else the preset's
-    /// at the flight altitude ([`TurbulencePreset::sigma_at_mps`]).
+    /// RMS gust speed of the run, m/s: `turbulence.sigma_mps` as given, else MIL-F-8785C's
+    /// for `turbulence.exceedance_probability` at the flight altitude, else the preset's at
+    /// the flight altitude ([`TurbulencePreset::sigma_at_mps`]).
     pub fn sigma_mps(&self) -> f64 {
-        self.turbulence
-            .sigma_mps
-            .unwrap_or_else(|| self.turbulence.preset.sigma_at_mps(self.flight.altitude_m))
+        let h = self.flight.altitude_m;
+        let t = &self.turbulence;
+        t.sigma_mps
+            .or_else(|| {
+                t.exceedance_probability
+                    .and_then(|p| crate::world::turbulence::mil_f_8785c_sigma_mps(h, p))
+            })
+            .unwrap_or_else(|| t.preset.sigma_at_mps(h))
     }
 
     /// The controller's configuration for this scenario: the procedure's default (the

@@ -187,6 +187,43 @@ fn conditions_outside_validity_are_refused_with_named_errors() {
 }
 
 #[test]
+fn turbulence_by_probability_of_exceedance_follows_the_altitude() {
+    use host_sim::world::turbulence::mil_f_8785c_sigma_mps;
+    let at = |h: f64| {
+        parse(&format!(
+            "[flight]\naltitude_m = {h}\n[turbulence]\nexceedance_probability = 1e-2\n"
+        ))
+        .unwrap()
+        .sigma_mps()
+    };
+    for h in [3000.0, 6000.0, 10_000.0] {
+        assert_eq!(at(h), mil_f_8785c_sigma_mps(h, 1e-2).unwrap(), "{h}");
+    }
+    assert!(
+        at(6000.0) < at(3000.0),
+        "light turbulence thins with altitude"
+    );
+    // `sigma_mps` (and so a dispersed intensity) wins; a probability not in the table is
+    // refused, naming the key.
+    let both = parse("[turbulence]\nexceedance_probability = 1e-2\nsigma_mps = 0.5\n").unwrap();
+    assert_eq!(both.sigma_mps(), 0.5);
+    let e = parse("[turbulence]\nexceedance_probability = 0.05\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("turbulence.exceedance_probability"), "{e}");
+    // The `moderate` preset (the 1e-2 intensity read at 3000 m as 1.8 m/s) follows the table.
+    let moderate = |h: f64| {
+        parse(&format!(
+            "[flight]\naltitude_m = {h}\n[turbulence]\npreset = \"moderate\"\n"
+        ))
+        .unwrap()
+        .sigma_mps()
+    };
+    assert_eq!(moderate(3000.0), 1.8);
+    assert!((moderate(6000.0) - 1.8 * at(6000.0) / at(3000.0)).abs() < 1e-12);
+}
+
+#[test]
 fn at_150_mps_and_6000_m_the_world_flies_there() {
     let m = model();
     let default_trim = m.trim_straight_level(120.0, 3000.0).unwrap();
