@@ -2,7 +2,8 @@
 //! the receiver is trimmed, the limits of the models' validity, and the air data the world
 //! models (hose and drogue, wake, bow wave) take from it.
 //!
-//! One atmosphere serves the whole world: the F-16 model's own ([`F16::air_at`],
+//! One atmosphere serves the whole world: the F-16 model's own
+//! ([`F16::air_at`](crate::receiver::F16::air_at),
 //! `receiver/atmosphere.rs`). At another condition than [`FlightCondition::DEFAULT`] the hose
 //! flies in that atmosphere's density, with the viscosity of Sutherland's law at its
 //! temperature; the wake's circulation takes its density and the airspeed; the bow wave's
