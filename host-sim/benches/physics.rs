@@ -33,7 +33,7 @@ fn benches(c: &mut Criterion) {
     let scenario = ScenarioFile::load("paper-level2")
         .expect("preset")
         .scenario();
-    let world = build_world(&scenario, &trim, DT_S).expect("world");
+    let world = build_world(&scenario, &model, &trim, DT_S).expect("world");
     let x0 = trim.state;
     let cmd = trim.command;
 

@@ -331,7 +331,9 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
 }
 
 fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), AnyError> {
-    let t = F16::new(xcg)?.trim_straight_level(speed_mps, altitude_m)?;
+    let t = F16::new(xcg)?
+        .trim_straight_level(speed_mps, altitude_m)
+        .map_err(|e| format!("no trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}: {e}"))?;
     if json {
         let v = serde_json::json!({
             "alpha_rad": t.alpha_rad,

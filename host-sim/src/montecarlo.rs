@@ -267,6 +267,10 @@ pub struct RunInputs {
     pub xcg: f64,
     /// Navigation latency, control steps (`None`: perfect navigation).
     pub nav_latency_steps: Option<u32>,
+    /// Flight condition: true airspeed, m/s.
+    pub airspeed_mps: f64,
+    /// Flight condition: altitude, m.
+    pub altitude_m: f64,
 }
 
 impl RunInputs {
@@ -284,6 +288,8 @@ impl RunInputs {
                 crate::scenario::NavModel::Ins => Some(f.navigation.ins.latency_steps),
                 crate::scenario::NavModel::Ideal => None,
             },
+            airspeed_mps: f.flight.airspeed_mps,
+            altitude_m: f.flight.altitude_m,
         }
     }
 }

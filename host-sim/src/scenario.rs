@@ -26,6 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
 use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
 use crate::world::camera::CameraParams;
+use crate::world::flight::{FlightCondition, FlightConditionError};
 use crate::world::hose::HoseParams;
 use crate::world::led_camera::LedCameraParams;
 use crate::world::nav::InsErrors;
@@ -150,6 +151,11 @@ pub struct TurbulenceSection {
     /// RMS gust speed, m/s; overrides the preset when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sigma_mps: Option<f64>,
+    /// Probability of exceedance: the RMS gust speed is MIL-F-8785C's for it at the flight
+    /// altitude ([`crate::world::turbulence::mil_f_8785c_sigma_mps`]); overrides the preset,
+    /// overridden by `sigma_mps` (so a dispersed intensity wins).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exceedance_probability: Option<f64>,
 }
 
 /// A section with just an on/off switch (`[bow_wave]`, `[tanker_wake]`).
@@ -201,6 +207,27 @@ pub struct ReceiverSection {
     pub xcg: f64,
 }
 
+/// `[flight]`: the flight condition of the tanker and the trimmed receiver
+/// ([`crate::world::flight`] gives its limits and what it changes in the world).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FlightSection {
+    /// True airspeed, m/s (calm air: also the ground speed). Default 120.
+    pub airspeed_mps: f64,
+    /// Altitude, m. Default 3000.
+    pub altitude_m: f64,
+}
+
+impl FlightSection {
+    /// The condition this section states.
+    pub fn condition(&self) -> FlightCondition {
+        FlightCondition {
+            airspeed_mps: self.airspeed_mps,
+            altitude_m: self.altitude_m,
+        }
+    }
+}
+
 /// `[dispersion]`: ranges `[min, max]` for a Monte Carlo campaign, each drawn uniformly per
 /// run (integers: every value of the range equally likely). A missing key is not dispersed:
 /// every run flies the file's value. Only `host-sim montecarlo` reads this table.
@@ -235,6 +262,12 @@ pub struct DispersionSection {
     /// Navigation latency, control periods (integers, both ends included).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nav_latency_steps: Option<[u32; 2]>,
+    /// True airspeed of the flight condition, m/s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub airspeed_mps: Option<[f64; 2]>,
+    /// Altitude of the flight condition, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub altitude_m: Option<[f64; 2]>,
 }
 
 impl DispersionSection {
@@ -274,6 +307,8 @@ pub struct ScenarioFile {
     pub camera: CameraSection,
     /// Receiver.
     pub receiver: ReceiverSection,
+    /// Flight condition.
+    pub flight: FlightSection,
     /// Navigation.
     pub navigation: NavigationSection,
     /// The refuelling procedure's parameters (the controller's own configuration).
@@ -314,6 +349,7 @@ impl Default for ScenarioFile {
             turbulence: TurbulenceSection {
                 preset: TurbulencePreset::None,
                 sigma_mps: None,
+                exceedance_probability: None,
             },
             bow_wave: Switch { enabled: false },
             tanker_wake: Switch { enabled: true },
@@ -331,6 +367,10 @@ impl Default for ScenarioFile {
                 drop_probability: 0.0,
             },
             receiver: ReceiverSection { xcg: NOMINAL_XCG },
+            flight: FlightSection {
+                airspeed_mps: FlightCondition::DEFAULT.airspeed_mps,
+                altitude_m: FlightCondition::DEFAULT.altitude_m,
+            },
             navigation: NavigationSection {
                 model: NavModel::Ins,
                 ins: InsErrors::default(),
@@ -373,6 +413,11 @@ impl Default for ReceiverSection {
         ScenarioFile::default().receiver
     }
 }
+impl Default for FlightSection {
+    fn default() -> Self {
+        ScenarioFile::default().flight
+    }
+}
 impl Default for NavigationSection {
     fn default() -> Self {
         ScenarioFile::default().navigation
@@ -413,6 +458,13 @@ pub enum ScenarioError {
     /// The controller's configuration the file makes is invalid (the core names the field).
     #[error("{0}")]
     Controller(#[from] ibvs_core::ConfigError),
+    /// A flight condition outside the models' validity (the key and the limit named).
+    #[error(transparent)]
+    Flight(#[from] FlightConditionError),
+    /// The receiver model's data could not be loaded (for the atmosphere of the flight
+    /// condition's limits).
+    #[error("the receiver model: {0}")]
+    Model(#[from] crate::receiver::ModelError),
     /// The navigation's error figures (the key named).
     #[error("{0} must be finite and not negative (latency at most 50 steps)")]
     Navigation(&'static str),
@@ -701,6 +753,15 @@ impl ScenarioFile {
         if let Some(s) = self.turbulence.sigma_mps {
             range("turbulence.sigma_mps", s, 0.0, 10.0, "0..=10")?;
         }
+        if let Some(p) = self.turbulence.exceedance_probability
+            && crate::world::turbulence::mil_f_8785c_sigma_mps(self.flight.altitude_m, p).is_none()
+        {
+            return Err(ScenarioError::OutOfRange {
+                key: "turbulence.exceedance_probability",
+                value: p.to_string(),
+                allowed: "one of MIL-F-8785C's tabulated 0.2, 0.1, 1e-2, 1e-3, 1e-4, 1e-5",
+            });
+        }
         range(
             "camera.mount_pitch_error_deg",
             self.camera.mount_pitch_error_deg,
@@ -750,12 +811,54 @@ impl ScenarioFile {
             XCG_RANGE.1,
             "0.25..=0.45",
         )?;
+        self.validate_flight()?;
         self.navigation
             .ins
             .validate()
             .map_err(ScenarioError::Navigation)?;
         self.controller_config().validate()?;
         self.validate_dispersion()
+    }
+
+    /// Checks `[flight]` and its dispersion against the limits of [`crate::world::flight`]
+    /// (Mach with the receiver model's atmosphere): the file's condition, and every corner of
+    /// the dispersed ranges, so that each run's condition is valid (the speed of sound
+    /// falls with altitude, then is constant: the fastest airspeed at the highest altitude
+    /// is the highest Mach).
+    fn validate_flight(&self) -> Result<(), ScenarioError> {
+        let model = crate::receiver::F16::new(NOMINAL_XCG)?;
+        let air = |h: f64| model.air_at(h);
+        self.flight
+            .condition()
+            .validate(air, "flight.airspeed_mps", "flight.altitude_m")?;
+        let d = &self.dispersion;
+        if d.airspeed_mps.is_none() && d.altitude_m.is_none() {
+            return Ok(());
+        }
+        let v = d.airspeed_mps.unwrap_or([self.flight.airspeed_mps; 2]);
+        let h = d.altitude_m.unwrap_or([self.flight.altitude_m; 2]);
+        for (key, r) in [
+            ("dispersion.airspeed_mps", d.airspeed_mps),
+            ("dispersion.altitude_m", d.altitude_m),
+        ] {
+            if let Some(r) = r
+                && r[0] > r[1]
+            {
+                return Err(ScenarioError::EmptyRange {
+                    key,
+                    min: r[0].to_string(),
+                    max: r[1].to_string(),
+                });
+            }
+        }
+        for (vi, hi) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            FlightCondition {
+                airspeed_mps: v[vi],
+                altitude_m: h[hi],
+            }
+            .validate(air, "dispersion.airspeed_mps", "dispersion.altitude_m")?;
+        }
+        Ok(())
     }
 
     /// Checks the `[dispersion]` ranges: each end as the base key, minimum at most maximum.
@@ -885,14 +988,27 @@ impl ScenarioFile {
             nav.compensated_latency_steps = Some(nav.compensated());
             nav.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
         }
+        if let Some(r) = d.airspeed_mps {
+            f.flight.airspeed_mps = uniform(SALT_AIRSPEED, r);
+        }
+        if let Some(r) = d.altitude_m {
+            f.flight.altitude_m = uniform(SALT_ALTITUDE, r);
+        }
         f
     }
 
-    /// RMS gust speed of the run, m/s.
+    /// RMS gust speed of the run, m/s: `turbulence.sigma_mps` as given, else MIL-F-8785C's
+    /// for `turbulence.exceedance_probability` at the flight altitude, else the preset's at
+    /// the flight altitude ([`TurbulencePreset::sigma_at_mps`]).
     pub fn sigma_mps(&self) -> f64 {
-        self.turbulence
-            .sigma_mps
-            .unwrap_or_else(|| self.turbulence.preset.sigma_mps())
+        let h = self.flight.altitude_m;
+        let t = &self.turbulence;
+        t.sigma_mps
+            .or_else(|| {
+                t.exceedance_probability
+                    .and_then(|p| crate::world::turbulence::mil_f_8785c_sigma_mps(h, p))
+            })
+            .unwrap_or_else(|| t.preset.sigma_at_mps(h))
     }
 
     /// The controller's configuration for this scenario: the procedure's default (the
@@ -965,6 +1081,10 @@ impl ScenarioFile {
             xcg: f.receiver.xcg,
             camera_body_m: c.placement.position_body_m(),
             navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
+            tanker: crate::world::Tanker {
+                speed_mps: f.flight.airspeed_mps,
+                altitude_m: f.flight.altitude_m,
+            },
             ..Scenario::ideal()
         }
     }
@@ -988,6 +1108,8 @@ const SALT_MOUNT: u64 = 0x50; // + axis
 const SALT_PITCH: u64 = 0x60;
 const SALT_XCG: u64 = 0x70;
 const SALT_NAV_LATENCY: u64 = 0x80;
+const SALT_AIRSPEED: u64 = 0x90;
+const SALT_ALTITUDE: u64 = 0xa0;
 
 /// SplitMix64's output function: a bijective mix of 64 bits.
 fn splitmix64(x: u64) -> u64 {

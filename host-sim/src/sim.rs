@@ -27,11 +27,12 @@ use crate::synthesis::{
 use crate::world::camera::{CameraParams, PinholeCamera};
 use crate::world::drogue::{CAPTURE_RADIUS_M, FixedDrogue};
 use crate::world::faults::{FaultInjector, SimFault};
+use crate::world::flight::{FlightCondition, FlightConditionError};
 use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
 use crate::world::led_camera::{CameraError, LedCamera, LedCameraParams};
 use crate::world::nav::{InsErrors, InsNav, Navigation, PerfectNav};
 use crate::world::turbulence::{
-    DrydenParams, GustField, HIGH_ALTITUDE_SCALE_LENGTH_M, TurbulenceError,
+    DrydenParams, GustField, TurbulenceError, mil_f_8785c_scale_lengths_m,
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
@@ -72,11 +73,15 @@ pub struct Scenario {
     pub plant_substeps: u32,
     /// Time simulated after a miss or a breakaway (to record the response), s.
     pub after_event_s: f64,
-    /// The tanker.
+    /// The tanker; its speed and altitude are the run's flight condition
+    /// ([`Scenario::flight`]): the receiver is trimmed there and the world's air is that
+    /// altitude's.
     pub tanker: Tanker,
     /// Receiver cg, fraction of the mean chord.
     pub xcg: f64,
-    /// Drogue model: `None` holds it at its nominal trail.
+    /// Drogue model: `None` holds it at its nominal trail. At another flight condition than
+    /// the default its air data (density, viscosity) are replaced by the condition's
+    /// ([`FlightCondition::hose_params`]).
     pub hose: Option<HoseParams>,
     /// Camera model.
     pub camera: CameraChoice,
@@ -88,7 +93,8 @@ pub struct Scenario {
     pub probe_tip_body_m: Vector3<f64>,
     /// RMS gust speed, m/s (0: calm).
     pub turbulence_sigma_mps: f64,
-    /// Tanker wake: `None` is off.
+    /// Tanker wake: `None` is off. At another flight condition than the default its density
+    /// and airspeed are the condition's ([`FlightCondition::wake_params`]).
     pub wake: Option<WakeParams>,
     /// Bow wave on the drogue.
     pub bow_wave: bool,
@@ -131,6 +137,15 @@ impl Scenario {
             wake: None,
             bow_wave: false,
             navigation: None,
+        }
+    }
+
+    /// The run's flight condition: the tanker's speed (the true airspeed, calm air) and
+    /// altitude.
+    pub fn flight(&self) -> FlightCondition {
+        FlightCondition {
+            airspeed_mps: self.tanker.speed_mps,
+            altitude_m: self.tanker.altitude_m,
         }
     }
 }
@@ -220,6 +235,10 @@ pub struct Summary {
     pub time_s: f64,
     /// The controller's breakaway reason, if it broke away.
     pub breakaway_reason: Option<String>,
+    /// The flight condition's true airspeed, m/s.
+    pub airspeed_mps: f64,
+    /// The flight condition's altitude, m.
+    pub altitude_m: f64,
 }
 
 /// A finished run.
@@ -330,8 +349,18 @@ pub enum SimError {
     #[error(transparent)]
     Model(#[from] ModelError),
     /// No trim at the tanker's flight condition.
+    #[error("no trim at the flight condition {airspeed_mps} m/s, {altitude_m} m: {source}")]
+    Trim {
+        /// True airspeed, m/s.
+        airspeed_mps: f64,
+        /// Altitude, m.
+        altitude_m: f64,
+        /// Why.
+        source: TrimError,
+    },
+    /// The flight condition is outside the models' validity.
     #[error(transparent)]
-    Trim(#[from] TrimError),
+    Flight(#[from] FlightConditionError),
     /// Bad scenario value.
     #[error("invalid scenario: {0}")]
     Scenario(&'static str),
@@ -350,14 +379,28 @@ pub enum SimError {
 }
 
 /// Builds the world of a scenario: the hose settled in its steady trail in the run's steady
-/// air (free stream and wake), the camera on the trim-level mount, seeded random processes.
-pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
-    let wake = s.wake.map(TankerWake::new).transpose()?;
+/// air (free stream and wake), the camera on the trim-level mount, seeded random processes;
+/// the air of `model`'s atmosphere at the flight condition ([`crate::world::flight`]).
+pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
+    let flight = s.flight();
+    flight.validate(
+        |h| model.air_at(h),
+        "flight.airspeed_mps",
+        "flight.altitude_m",
+    )?;
+    let air = model.air_at(flight.altitude_m);
+    let reference_air = model.air_at(FlightCondition::DEFAULT.altitude_m);
+    let wake = s
+        .wake
+        .map(|w| TankerWake::new(flight.wake_params(w, &air)))
+        .transpose()?;
     let gusts = (s.turbulence_sigma_mps > 0.0)
         .then(|| {
+            // Isotropic above 2,000 ft, the validity limit of the condition: one length.
+            let [length_m, _, _] = mil_f_8785c_scale_lengths_m(flight.altitude_m);
             let params = DrydenParams {
                 sigma_mps: s.turbulence_sigma_mps,
-                length_m: HIGH_ALTITUDE_SCALE_LENGTH_M,
+                length_m,
                 airspeed_mps: s.tanker.speed_mps,
             };
             GustField::new(params, dt_s, s.seed ^ TURBULENCE_SEED_SALT)
@@ -366,6 +409,7 @@ pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimErr
     let drogue = match s.hose {
         None => Drogue::Fixed(FixedDrogue::default()),
         Some(params) => {
+            let params = flight.hose_params(params, &air);
             let steady_air = |p: &Vector3<f64>| {
                 let w = wake
                     .as_ref()
@@ -404,6 +448,7 @@ pub fn build_world(s: &Scenario, trim: &Trim, dt_s: f64) -> Result<World, SimErr
         gusts,
         wake,
         bow_wave: s.bow_wave,
+        bow_wave_scale: flight.bow_wave_scale(&air, &reference_air),
     })
 }
 
@@ -451,20 +496,34 @@ pub fn run_observed(
         ));
     }
     let model = F16::new(s.xcg)?;
-    let trim = model.trim_straight_level(s.tanker.speed_mps, s.tanker.altitude_m)?;
-    // The camera is fixed to the airframe, level at the trim the gains were designed for
-    // (nominal cg), and the navigation reports perturbations from that trim: at another cg
-    // the receiver trims at a different attitude, which both then see.
+    let flight = s.flight();
+    flight.validate(
+        |h| model.air_at(h),
+        "flight.airspeed_mps",
+        "flight.altitude_m",
+    )?;
+    let trim_at = |m: &F16| {
+        m.trim_straight_level(flight.airspeed_mps, flight.altitude_m)
+            .map_err(|source| SimError::Trim {
+                airspeed_mps: flight.airspeed_mps,
+                altitude_m: flight.altitude_m,
+                source,
+            })
+    };
+    let trim = trim_at(&model)?;
+    // The camera is fixed to the airframe, level at the trim of the nominal cg at the run's
+    // flight condition, and the navigation reports perturbations from that trim: at another
+    // cg the receiver trims at a different attitude, which both then see.
     let design_trim = if s.xcg == NOMINAL_XCG {
         trim
     } else {
-        F16::new(NOMINAL_XCG)?.trim_straight_level(s.tanker.speed_mps, s.tanker.altitude_m)?
+        trim_at(&F16::new(NOMINAL_XCG)?)?
     };
     let (ts, dt) = (
         CONTROL_PERIOD_S,
         CONTROL_PERIOD_S / f64::from(s.plant_substeps),
     );
-    let mut world = build_world(s, &design_trim, dt)?;
+    let mut world = build_world(s, &model, &design_trim, dt)?;
     let mut x = initial_state(s, &trim, &world.drogue_centre_tanker_m());
     let start_cg = point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0);
     let mut nav = match s.navigation {
@@ -600,6 +659,8 @@ pub fn run_observed(
             closure_mps: decisive.map(|c| c.closure_mps),
             time_s,
             breakaway_reason: reason,
+            airspeed_mps: flight.airspeed_mps,
+            altitude_m: flight.altitude_m,
         },
         contact,
         crossings,

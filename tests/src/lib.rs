@@ -76,6 +76,8 @@ mod tests {
             closure_mps,
             time_s: 9.7,
             breakaway_reason: None,
+            airspeed_mps: 120.0,
+            altitude_m: 3000.0,
         }
     }
 

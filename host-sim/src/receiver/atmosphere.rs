@@ -6,6 +6,8 @@
 //! (at 3000 m it gives 0.9104 kg/m^3 where ISA gives 0.9093).
 //! Invariants: altitude in and SI out; English units live only inside [`Atmosphere::at`].
 //! Valid while `tfac > 0`, i.e. below about 43 km; the tables stop at 50 000 ft (15.2 km).
+//! [`F16::air_at`](super::F16::air_at) gives the same properties to the world models (hose,
+//! wake), so that one atmosphere serves the whole simulation.
 
 use super::units::{KG_M3_PER_SLUG_FT3, M_PER_FT};
 
@@ -24,14 +26,19 @@ const GAMMA_AIR: f64 = 1.4;
 /// Gas constant of air, ft^2/(s^2 R).
 const GAS_CONSTANT_FT2_PER_S2_R: f64 = 1716.3;
 
-/// Air properties at one altitude, SI.
+/// Air properties at one altitude, SI (the F-16 model's atmosphere, not ISA).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct AirProperties {
+pub struct AirProperties {
     /// Air density, kg/m^3.
-    pub(crate) density_kg_m3: f64,
+    pub density_kg_m3: f64,
     /// Speed of sound, m/s.
-    pub(crate) speed_of_sound_mps: f64,
+    pub speed_of_sound_mps: f64,
+    /// Static temperature, K (the model's `T`, converted from Rankine).
+    pub temperature_k: f64,
 }
+
+/// Kelvin per degree Rankine.
+const K_PER_R: f64 = 5.0 / 9.0;
 
 /// The air-data computer, holding the sea-level density from the data file.
 #[derive(Debug, Clone)]
@@ -62,6 +69,7 @@ impl Atmosphere {
         AirProperties {
             density_kg_m3: density_slug_ft3 * KG_M3_PER_SLUG_FT3,
             speed_of_sound_mps: speed_of_sound_ftps * M_PER_FT,
+            temperature_k: temperature_r * K_PER_R,
         }
     }
 }

@@ -26,6 +26,7 @@ mod units;
 
 pub use actuators::{ActuatorParams, SurfaceLimits};
 pub use aero::ReferenceGeometry;
+pub use atmosphere::AirProperties;
 pub use data::ModelError;
 pub use model::{AirData, BodyLoads, F16};
 pub use state::{

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::actuators::ActuatorParams;
 use super::aero::{AeroInput, AeroModel, ReferenceGeometry};
-use super::atmosphere::Atmosphere;
+use super::atmosphere::{AirProperties, Atmosphere};
 use super::data::{ModelData, ModelError};
 use super::engine::{Engine, commanded_power_pct, power_rate_pct_per_s};
 use super::state::{ReceiverCommand, ReceiverState, StateVector, Wind};
@@ -116,6 +116,12 @@ impl F16 {
             gravity_mps2: a.g_ftps2 * M_PER_FT,
             aero: AeroModel::new(&data.grid, data.aero, geometry, a.xcg_ref, xcg),
         })
+    }
+
+    /// The model's own atmosphere at `altitude_m` (m, positive up): density, speed of sound
+    /// and temperature, as its air data use them (`atmosphere.rs`).
+    pub fn air_at(&self, altitude_m: f64) -> AirProperties {
+        self.atmosphere.at(altitude_m)
     }
 
     /// CG position, fraction of the mean chord.

@@ -37,6 +37,13 @@
 //! box faces, and exactly zero further than [`TAPER_M`] = 1 m from the box. The result is
 //! bounded everywhere by [`FORCE_BOUND_N`] (the fit's maximum on the box, tested).
 //!
+//! Flight condition: the fit was made at one condition, the refuelling one (120 m/s; its
+//! density unstated, taken as our 3000 m air). Its force is that of a potential flow with a
+//! viscous correction, whose pressures scale with the dynamic pressure: at another condition
+//! the world multiplies it by `rho V^2 / (rho0 V0^2)` (`world/flight.rs`,
+//! `FlightCondition::bow_wave_scale`, exactly 1 at the default condition) and keeps the
+//! field's geometry (the forebody is the same). The bound below is at the default condition.
+//!
 //! Invariants: finite inputs give finite forces of norm at most [`FORCE_BOUND_N`]; zero for
 //! `x > 5.6493` m and beyond the taper; `NaN` in gives `NaN` out.
 

@@ -88,7 +88,9 @@ pub const DROGUE_CANOPY_DIAMETER_M: f64 = 0.6096;
 pub const DROGUE_DRAG_COEFFICIENT: f64 = 0.8;
 
 /// Air density at 3000 m in the receiver model's own atmosphere (`docs/conventions.md`),
-/// kg/m^3; the default, so that the receiver and the hose fly in the same air.
+/// kg/m^3; the default, so that the receiver and the hose fly in the same air. At another
+/// flight condition the run replaces it by that atmosphere's density at the altitude
+/// (`world/flight.rs`, `FlightCondition::hose_params`).
 pub const AIR_DENSITY_3000M_KG_PER_M3: f64 = 0.9104;
 
 /// Air density the authors used for the hose, kg/m^3 (\[R\], `0.844323529538532`); ISA at
@@ -96,7 +98,9 @@ pub const AIR_DENSITY_3000M_KG_PER_M3: f64 = 0.9104;
 pub const AUTHORS_AIR_DENSITY_KG_PER_M3: f64 = 0.844_323_529_538_532;
 
 /// Dynamic viscosity of air at 3000 m, Pa s: Sutherland's law (`1.458e-6 T^1.5 / (T + 110.4)`,
-/// the ISA/US Standard Atmosphere 1976 form) at the ISA temperature 268.65 K.
+/// the ISA/US Standard Atmosphere 1976 form) at the ISA temperature 268.65 K. At another
+/// flight condition the run uses the same law at the receiver model's atmosphere's
+/// temperature at the altitude (`world/flight.rs`).
 pub const AIR_DYNAMIC_VISCOSITY_3000M_PA_S: f64 = 1.6938e-5;
 
 /// Kinematic viscosity the authors used, m^2/s (\[R\]: `1.7894e-5`, the sea-level *dynamic*

@@ -14,6 +14,7 @@ pub mod bow_wave;
 pub mod camera;
 pub mod drogue;
 pub mod faults;
+pub mod flight;
 pub mod hose;
 pub mod led_camera;
 pub mod nav;
@@ -142,6 +143,9 @@ pub struct World {
     pub wake: Option<TankerWake>,
     /// Bow wave on the drogue, when on.
     pub bow_wave: bool,
+    /// Factor on the bow wave's force: the dynamic pressure over the default condition's
+    /// ([`flight::FlightCondition::bow_wave_scale`]; 1 there).
+    pub bow_wave_scale: f64,
 }
 
 impl World {
@@ -185,7 +189,13 @@ impl World {
         }
         let nose = point_in_tanker_m(&self.tanker, x, &Vector3::zeros(), t_s)
             + Vector3::from(BOW_WAVE_NOSE_FROM_CG_M);
-        bow_wave::bow_wave_force_tanker_n(&(self.drogue_centre_tanker_m() - nose))
+        let force = bow_wave::bow_wave_force_tanker_n(&(self.drogue_centre_tanker_m() - nose));
+        // At the default condition the scale is 1 and the force is the fit's, bit for bit.
+        if self.bow_wave_scale == 1.0 {
+            force
+        } else {
+            force * self.bow_wave_scale
+        }
     }
 
     /// Advances the air and the hose by `dt_s` (the receiver at `x` for the bow wave), ending

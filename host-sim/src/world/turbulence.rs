@@ -55,7 +55,8 @@ use serde::{Deserialize, Serialize};
 /// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
 /// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
-/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]).
+/// Tanker airspeed of the refuelling condition, m/s (docs/models.md, "Turbulence"; \[R\]);
+/// a run's gusts convect at its own flight condition's airspeed.
 pub const TRIM_AIRSPEED_MPS: f64 = 120.0;
 /// Preset "level I" (the paper's light turbulence, about 5 ft/s peak): sigma, m/s
 /// (judgement, docs/models.md, "Turbulence": peaks near 3 sigma).
@@ -104,6 +105,40 @@ pub fn mil_f_8785c_sigma_mps(altitude_m: f64, probability: f64) -> Option<f64> {
     Some(ftps * FT)
 }
 
+/// Top of MIL-F-8785C's low-altitude turbulence model, ft.
+const LOW_ALTITUDE_TOP_FT: f64 = 1000.0;
+/// Bottom of its medium/high-altitude model, ft (between the two, linear in altitude).
+const HIGH_ALTITUDE_BOTTOM_FT: f64 = 2000.0;
+
+/// MIL-F-8785C's Dryden scale lengths `[L_u, L_v, L_w]` at `altitude_m` (above ground), m,
+/// in the form of the filters above (`H_v` and `H_w` with `L`, not `L / 2`):
+///
+/// - low altitude, `h` below 1,000 ft: `L_u = L_v = h / (0.177 + 0.000823 h)^1.2` ft,
+///   `L_w = h` ft (`h` in ft, at least 10 ft, where the specification's curves start);
+/// - medium/high altitude, from 2,000 ft: `L_u = L_v = L_w = 1750 ft`
+///   ([`HIGH_ALTITUDE_SCALE_LENGTH_M`], returned as that constant);
+/// - between 1,000 and 2,000 ft: linear in altitude between the two.
+///
+/// The gust generator has one scale length for all axes (the isotropic medium/high-altitude
+/// model), so a run is flown from 2,000 ft only (`world/flight.rs`); below, the lengths differ
+/// per axis (and so, in MIL-F-8785C, do the intensities).
+pub fn mil_f_8785c_scale_lengths_m(altitude_m: f64) -> [f64; 3] {
+    const FT: f64 = 0.3048;
+    let h = (altitude_m / FT).max(10.0);
+    if h >= HIGH_ALTITUDE_BOTTOM_FT {
+        return [HIGH_ALTITUDE_SCALE_LENGTH_M; 3];
+    }
+    let low = |h: f64| {
+        let l_uv = h / (0.177 + 0.000823 * h).powf(1.2);
+        [l_uv * FT, l_uv * FT, h * FT]
+    };
+    if h <= LOW_ALTITUDE_TOP_FT {
+        return low(h);
+    }
+    let f = (h - LOW_ALTITUDE_TOP_FT) / (HIGH_ALTITUDE_BOTTOM_FT - LOW_ALTITUDE_TOP_FT);
+    low(LOW_ALTITUDE_TOP_FT).map(|l| l + f * (HIGH_ALTITUDE_SCALE_LENGTH_M - l))
+}
+
 /// How far aft of the reference point (the hose exit) the frozen-field history reaches, m.
 /// Points further aft see the gust of a point this far aft (the delay is clamped).
 pub const FROZEN_FIELD_DEPTH_M: f64 = 60.0;
@@ -136,6 +171,27 @@ impl TurbulencePreset {
             Self::Level1 => LEVEL1_SIGMA_MPS,
             Self::Level2 => LEVEL2_SIGMA_MPS,
             Self::Moderate => MODERATE_SIGMA_MPS,
+        }
+    }
+
+    /// Gust standard deviation at `altitude_m`, m/s: the `moderate` preset is MIL-F-8785C's
+    /// intensity at probability of exceedance 1e-2, read at 3000 m as 1.8 m/s, so at another
+    /// altitude it is 1.8 m/s times the table's ratio between that altitude and 3000 m
+    /// ([`mil_f_8785c_sigma_mps`]; exactly [`MODERATE_SIGMA_MPS`] at 3000 m); the paper's
+    /// levels are readings of its peaks, not of the table, and keep their values.
+    pub fn sigma_at_mps(self, altitude_m: f64) -> f64 {
+        const READ_AT_M: f64 = 3000.0;
+        match self {
+            Self::Moderate if altitude_m != READ_AT_M => {
+                match (
+                    mil_f_8785c_sigma_mps(altitude_m, 1e-2),
+                    mil_f_8785c_sigma_mps(READ_AT_M, 1e-2),
+                ) {
+                    (Some(here), Some(there)) => MODERATE_SIGMA_MPS * here / there,
+                    _ => MODERATE_SIGMA_MPS,
+                }
+            }
+            _ => self.sigma_mps(),
         }
     }
 
@@ -493,6 +549,48 @@ mod tests {
     }
 
     use super::*;
+
+    #[test]
+    fn scale_lengths_by_altitude() {
+        const FT: f64 = 0.3048;
+        // Medium/high altitude: the constant itself, on every axis.
+        for h in [2000.0 * FT, 3000.0, 6000.0, 15_000.0] {
+            assert_eq!(
+                mil_f_8785c_scale_lengths_m(h),
+                [HIGH_ALTITUDE_SCALE_LENGTH_M; 3]
+            );
+        }
+        // Low altitude, 500 ft: L_w = h, L_u = L_v = 500 / (0.177 + 0.4115)^1.2 ft.
+        let l = mil_f_8785c_scale_lengths_m(500.0 * FT);
+        let want = 500.0 / (0.177 + 0.000823 * 500.0_f64).powf(1.2) * FT;
+        assert!((l[0] - want).abs() < 1e-9 && l[0] == l[1], "{l:?}");
+        assert!((l[2] - 500.0 * FT).abs() < 1e-9);
+        assert!((l[0] / FT - 945.0).abs() < 1.0, "{}", l[0] / FT);
+        // Continuous at 1000 ft and 2000 ft.
+        let (a, b) = (
+            mil_f_8785c_scale_lengths_m(1000.0 * FT - 1e-6),
+            mil_f_8785c_scale_lengths_m(1000.0 * FT + 1e-6),
+        );
+        let c = mil_f_8785c_scale_lengths_m(2000.0 * FT - 1e-6);
+        for i in 0..3 {
+            assert!((a[i] - b[i]).abs() < 1e-3, "{a:?} {b:?}");
+            assert!((c[i] - HIGH_ALTITUDE_SCALE_LENGTH_M).abs() < 1e-3, "{c:?}");
+        }
+    }
+
+    #[test]
+    fn the_moderate_preset_follows_the_table_with_altitude() {
+        let m = TurbulencePreset::Moderate;
+        assert_eq!(m.sigma_at_mps(3000.0), MODERATE_SIGMA_MPS);
+        let ratio = mil_f_8785c_sigma_mps(6000.0, 1e-2).unwrap()
+            / mil_f_8785c_sigma_mps(3000.0, 1e-2).unwrap();
+        assert!((m.sigma_at_mps(6000.0) - 1.8 * ratio).abs() < 1e-12);
+        assert!(m.sigma_at_mps(6000.0) < 1.8);
+        assert_eq!(
+            TurbulencePreset::Level2.sigma_at_mps(6000.0),
+            LEVEL2_SIGMA_MPS
+        );
+    }
 
     const T_TRIM_S: f64 = HIGH_ALTITUDE_SCALE_LENGTH_M / TRIM_AIRSPEED_MPS;
 

@@ -58,13 +58,16 @@ pub const DEFAULT_TANKER_MASS_KG: f64 = 80_000.0;
 /// `Gamma` is the authors' 352.6 m^2/s).
 pub const DEFAULT_GRAVITY_MPS2: f64 = 9.794_34;
 /// Air density of the circulation, kg/m^3: the receiver model's atmosphere at the refuelling
-/// altitude, 3000 m (our choice, for one consistent atmosphere; `Gamma` = 228.7 m^2/s).
+/// altitude, 3000 m (our choice, for one consistent atmosphere; `Gamma` = 228.7 m^2/s). At
+/// another flight condition the run uses that atmosphere's density at the altitude, so
+/// `Gamma = W / (rho V b')` follows density and airspeed (`world/flight.rs`).
 /// \[R\] uses 0.5895 kg/m^3, the density near 7000 m, which gives the authors'
 /// 352.6 m^2/s: [`AUTHORS_AIR_DENSITY_KGPM3`].
 pub const DEFAULT_AIR_DENSITY_KGPM3: f64 = 0.9104;
 /// The authors' circulation density, kg/m^3 (\[R\]; docs/models.md, "Tanker wake").
 pub const AUTHORS_AIR_DENSITY_KGPM3: f64 = 0.5895;
-/// Tanker airspeed, m/s (docs/models.md, "Tanker wake").
+/// Tanker airspeed, m/s (docs/models.md, "Tanker wake"); at another flight condition the
+/// run's airspeed (circulation and wake age).
 pub const DEFAULT_AIRSPEED_MPS: f64 = 120.0;
 /// Wing span, m: the tip vortices sit at `+/- span / 2` (docs/models.md, "Tanker wake"; \[R\]).
 pub const DEFAULT_WING_SPAN_M: f64 = 40.0;
