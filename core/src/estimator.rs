@@ -129,15 +129,20 @@ impl Default for EstimatorConfig {
 /// believed camera mount and probe-tip position.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TipGeometry {
-    /// Probe tip minus camera, camera-reference axes at trim (right, down, forward), m.
+    /// Probe tip minus camera, camera axes (right, down, boresight), m.
     tip_from_camera_re_m: [f32; 3],
     /// Trim pitch's sine and cosine: body roll is about an axis pitched up by it.
     trim_pitch_sin_cos: [f32; 2],
+    /// Sine and cosine of the boresight's elevation above the tanker's axis at trim, the trim
+    /// pitch minus the mount's pitch-down: 0 and 1 exactly when the mount is level at trim
+    /// (the design condition), so that the rotation below changes nothing there.
+    boresight_elevation_sin_cos: [f32; 2],
 }
 
 impl TipGeometry {
     /// The geometry of a `camera` mount (boresight level at trim when its pitch-down is the
-    /// trim pitch) and the probe tip, both in body axes, at the trim pitch `trim_pitch_rad`.
+    /// trim pitch, looking up by the difference otherwise: at another flight condition than
+    /// the mount's) and the probe tip, both in body axes, at the trim pitch `trim_pitch_rad`.
     pub fn new(camera: &CameraMount, probe_tip_body_m: [f32; 3], trim_pitch_rad: f32) -> Self {
         let d = [0, 1, 2].map(|i| probe_tip_body_m[i] - camera.position_body_m[i]);
         // Camera axes (x right, y down, z boresight) from body axes: the transpose of the
@@ -150,10 +155,14 @@ impl TipGeometry {
                 let (s, c) = sin_cos(trim_pitch_rad);
                 [s, c]
             },
+            boresight_elevation_sin_cos: {
+                let (s, c) = sin_cos(trim_pitch_rad - camera.pitch_down_rad);
+                [s, c]
+            },
         }
     }
 
-    /// Probe tip minus camera in the camera's axes at trim (right, down, forward), m.
+    /// Probe tip minus camera in the camera's axes (right, down, boresight), m.
     pub fn tip_from_camera_m(&self) -> [f32; 3] {
         self.tip_from_camera_re_m
     }
@@ -185,11 +194,19 @@ impl TipGeometry {
     ) -> [f32; 3] {
         let tz = self.tip_from_camera_re_m[2];
         let t = [tip_image[0] * tz, tip_image[1] * tz, tz];
-        // Drogue minus tip in the camera's axes, reordered to tanker axes (fwd, right, down).
-        let a = [
+        // Drogue minus tip in the camera's axes, reordered (boresight, right, down), then
+        // turned to the tanker's axes at trim (fwd, right, down): the boresight is raised by
+        // the elevation `e` about the right axis.
+        let c_axes = [
             depth_m - t[2],
             image[0] * depth_m - t[0],
             image[1] * depth_m - t[1],
+        ];
+        let [se, ce] = self.boresight_elevation_sin_cos;
+        let a = [
+            ce * c_axes[0] + se * c_axes[2],
+            c_axes[1],
+            ce * c_axes[2] - se * c_axes[0],
         ];
         // Small rotation of the camera from its trim attitude, tanker axes: roll about the
         // body x axis (pitched up by the trim pitch), pitch, heading.

@@ -379,7 +379,8 @@ pub enum SimError {
 }
 
 /// Builds the world of a scenario: the hose settled in its steady trail in the run's steady
-/// air (free stream and wake), the camera on the trim-level mount, seeded random processes;
+/// air (free stream and wake), the camera on the mount level at `trim` (the installation's
+/// design trim), seeded random processes;
 /// the air of `model`'s atmosphere at the flight condition ([`crate::world::flight`]).
 pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
     let flight = s.flight();
@@ -511,19 +512,33 @@ pub fn run_observed(
             })
     };
     let trim = trim_at(&model)?;
-    // The camera is fixed to the airframe, level at the trim of the nominal cg at the run's
-    // flight condition, and the navigation reports perturbations from that trim: at another
-    // cg the receiver trims at a different attitude, which both then see.
+    // The navigation reports perturbations from the trim of the nominal cg at the run's
+    // flight condition: at another cg the receiver trims at a different attitude, which it
+    // then sees. The camera is fixed to the airframe, level at the trim of the installation's
+    // design (nominal cg, the default condition): at another condition it looks up or down by
+    // the difference, which the controller's geometry takes out.
     let design_trim = if s.xcg == NOMINAL_XCG {
         trim
     } else {
         trim_at(&F16::new(NOMINAL_XCG)?)?
     };
+    let mount_trim = if flight == FlightCondition::DEFAULT {
+        design_trim
+    } else {
+        let d = FlightCondition::DEFAULT;
+        F16::new(NOMINAL_XCG)?
+            .trim_straight_level(d.airspeed_mps, d.altitude_m)
+            .map_err(|source| SimError::Trim {
+                airspeed_mps: d.airspeed_mps,
+                altitude_m: d.altitude_m,
+                source,
+            })?
+    };
     let (ts, dt) = (
         CONTROL_PERIOD_S,
         CONTROL_PERIOD_S / f64::from(s.plant_substeps),
     );
-    let mut world = build_world(s, &model, &design_trim, dt)?;
+    let mut world = build_world(s, &model, &mount_trim, dt)?;
     let mut x = initial_state(s, &trim, &world.drogue_centre_tanker_m());
     let start_cg = point_in_tanker_m(&s.tanker, &x, &Vector3::zeros(), 0.0);
     let mut nav = match s.navigation {

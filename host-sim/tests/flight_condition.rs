@@ -133,6 +133,8 @@ fn conditions_outside_validity_are_refused_with_named_errors() {
     // Higher up the speed of sound is lower: 190 m/s is Mach 0.58 at 3000 m, 0.64 at 12 km.
     assert!(parse("[flight]\nairspeed_mps = 190.0\naltitude_m = 3000.0\n").is_ok());
     assert!(parse("[flight]\nairspeed_mps = 190.0\naltitude_m = 12000.0\n").is_err());
+    // The docking envelope's floor, 500 m, is above the turbulence model's (1,000 ft).
+    assert!(parse("[flight]\nairspeed_mps = 100.0\naltitude_m = 500.0\n").is_ok());
     // Non-finite, non-positive, outside the altitude range.
     for (text, key) in [
         ("[flight]\nairspeed_mps = 0.0\n", "flight.airspeed_mps"),

@@ -12,7 +12,7 @@
 //! Limits ([`FlightCondition::validate`]): airspeed and altitude finite and positive; Mach at
 //! most [`MAX_MACH`] (the F-16 low-fidelity data have no compressibility effects); altitude
 //! within [`MIN_ALTITUDE_M`]..=[`MAX_ALTITUDE_M`]: the engine's thrust tables stop at
-//! 50,000 ft (above they would be extrapolated), and below 2,000 ft MIL-F-8785C's turbulence
+//! 50,000 ft (above they would be extrapolated), and below 1,000 ft MIL-F-8785C's turbulence
 //! is no longer isotropic (different scale lengths and intensities per axis), which the gust
 //! generator (`turbulence.rs`) does not model.
 //!
@@ -34,9 +34,13 @@ use crate::world::wake::WakeParams;
 /// Highest Mach number accepted: the F-16 low-fidelity aerodynamic data have no
 /// compressibility (Stevens, Lewis & Johnson state them for Mach up to about 0.6).
 pub const MAX_MACH: f64 = 0.6;
-/// Lowest altitude accepted, m: 2,000 ft, the lower end of MIL-F-8785C's medium/high-altitude
-/// turbulence model (isotropic), the only one the gust generator has.
-pub const MIN_ALTITUDE_M: f64 = 609.6;
+/// Lowest altitude accepted, m: 1,000 ft, the top of MIL-F-8785C's low-altitude turbulence
+/// model. From there up its turbulence is isotropic, the only kind the gust generator has: at
+/// 1,000 ft the low-altitude scale lengths (`h / (0.177 + 0.000823 h)^1.2` and `h`) and
+/// intensity ratios (`1 / (0.177 + 0.000823 h)^0.4`) are all 1,000 ft and 1, and between
+/// 1,000 and 2,000 ft the specification interpolates between two isotropic models. Below,
+/// the lengths and intensities differ per axis.
+pub const MIN_ALTITUDE_M: f64 = 304.8;
 /// Highest altitude accepted, m: 50,000 ft, the top of the engine's thrust tables.
 pub const MAX_ALTITUDE_M: f64 = 15_240.0;
 
@@ -69,7 +73,7 @@ pub enum FlightConditionError {
     /// The altitude is outside the atmosphere, engine and turbulence models' range.
     #[error(
         "{key} = {value} m is out of range: allowed {MIN_ALTITUDE_M}..={MAX_ALTITUDE_M} m \
-         (2,000 ft: below, MIL-F-8785C turbulence is not isotropic; 50,000 ft: the top of the \
+         (1,000 ft: below, MIL-F-8785C turbulence is not isotropic; 50,000 ft: the top of the \
          engine's thrust tables)"
     )]
     AltitudeOutOfRange {

@@ -119,9 +119,10 @@ const HIGH_ALTITUDE_BOTTOM_FT: f64 = 2000.0;
 ///   ([`HIGH_ALTITUDE_SCALE_LENGTH_M`], returned as that constant);
 /// - between 1,000 and 2,000 ft: linear in altitude between the two.
 ///
-/// The gust generator has one scale length for all axes (the isotropic medium/high-altitude
-/// model), so a run is flown from 2,000 ft only (`world/flight.rs`); below, the lengths differ
-/// per axis (and so, in MIL-F-8785C, do the intensities).
+/// The gust generator has one scale length for all axes. From 1,000 ft up the three lengths
+/// are equal (at 1,000 ft the low-altitude formulas give 1,000 ft on every axis), so a run is
+/// flown from 1,000 ft only (`world/flight.rs`); below, the lengths differ per axis (and so,
+/// in MIL-F-8785C, do the intensities).
 pub fn mil_f_8785c_scale_lengths_m(altitude_m: f64) -> [f64; 3] {
     const FT: f64 = 0.3048;
     let h = (altitude_m / FT).max(10.0);
