@@ -562,13 +562,23 @@ macro_rules! refuelling_dispersion {
     };
 }
 
+/// The flight condition's dispersion of `envelope`: the whole docking envelope the controller
+/// accepts (its gain schedule's grid, [`ibvs_core::gains::SCHEDULE_SPEEDS_MPS`] and
+/// [`ibvs_core::gains::SCHEDULE_ALTITUDES_M`]; tested against them), to be appended to a
+/// `[dispersion]` table.
+macro_rules! envelope_dispersion {
+    () => {
+        "airspeed_mps = [100.0, 170.0]\naltitude_m = [500.0, 8000.0]\n"
+    };
+}
+
 /// The RMS gust intensity range of `mil-level2`: MIL-F-8785C's at probability of
 /// exceedance 1e-2 at 3000 m ([`crate::world::turbulence::mil_f_8785c_sigma_mps`], 1.84 m/s)
 /// +/-20 %, m/s (tested against the table).
 pub const MIL_LEVEL2_SIGMA_RANGE_MPS: [f64; 2] = [1.47, 2.21];
 
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
-pub const PRESETS: [(&str, &str, &str); 11] = [
+pub const PRESETS: [(&str, &str, &str); 12] = [
     (
         "calm",
         "paper start, calm air, tanker wake, hose and LED camera, refuelling procedure (the default)",
@@ -667,6 +677,15 @@ pub const PRESETS: [(&str, &str, &str); 11] = [
             "mount_pitch_error_deg = [-0.5, 0.5]\n",
             "xcg = [0.30, 0.40]\n",
             "nav_latency_steps = [1, 2]\n",
+        ),
+    ),
+    (
+        "envelope",
+        "the refuelling procedure: level2 over the whole docking envelope, 100..170 m/s true airspeed, 500..8000 m",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n",
+            refuelling_dispersion!("[0.56, 0.84]"),
+            envelope_dispersion!()
         ),
     ),
 ];
@@ -1282,6 +1301,53 @@ mod tests {
                 "{name}"
             );
             assert_eq!(f.duration_s, 70.0, "{name}");
+        }
+    }
+
+    /// `envelope` is `level2` exactly, with the flight condition dispersed over the gain
+    /// schedule's whole grid (the docking envelope), and every run inside it.
+    #[test]
+    fn envelope_is_level2_over_the_whole_docking_envelope() {
+        use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
+        let level2 = ScenarioFile::load("level2").unwrap();
+        let envelope = ScenarioFile::load("envelope").unwrap();
+        let ends = |g: &[f32]| match (g.first(), g.last()) {
+            (Some(&lo), Some(&hi)) => Some([f64::from(lo), f64::from(hi)]),
+            _ => None,
+        };
+        let expected = ScenarioFile {
+            name: "envelope".into(),
+            dispersion: DispersionSection {
+                airspeed_mps: ends(&SCHEDULE_SPEEDS_MPS),
+                altitude_m: ends(&SCHEDULE_ALTITUDES_M),
+                ..level2.dispersion.clone()
+            },
+            ..level2
+        };
+        assert_eq!(envelope, expected);
+        let (v, h) = (
+            ends(&SCHEDULE_SPEEDS_MPS).unwrap(),
+            ends(&SCHEDULE_ALTITUDES_M).unwrap(),
+        );
+        let (mut speeds, mut heights) = (Vec::new(), Vec::new());
+        for i in 0..200 {
+            let f = envelope.dispersed(i);
+            f.validate().unwrap();
+            let c = f.flight.condition();
+            assert!((v[0]..=v[1]).contains(&c.airspeed_mps), "run {i}: {c:?}");
+            assert!((h[0]..=h[1]).contains(&c.altitude_m), "run {i}: {c:?}");
+            speeds.push(c.airspeed_mps);
+            heights.push(c.altitude_m);
+        }
+        // Spread over the envelope, not stuck at one condition.
+        for (x, [lo, hi]) in [(speeds, v), (heights, h)] {
+            let (min, max) = x
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+            assert!(
+                min < lo + 0.05 * (hi - lo) && max > hi - 0.05 * (hi - lo),
+                "{min}..{max}"
+            );
         }
     }
 
