@@ -13,10 +13,18 @@
 //! - `campaign.json`: [`CampaignMeta`] (the scenario as TOML, the campaign size, the shard);
 //! - `summary.json`: [`CampaignSummary`] (success rate with a 95 % Wilson interval, unsafe
 //!   end states, miss and closing-speed percentiles, failure causes, success against
-//!   turbulence intensity);
+//!   turbulence intensity, success per cell of the gain schedule's grid of flight
+//!   conditions and the runs outside it);
 //! - `miss_scatter.png`: where the probe tip crossed the drogue plane, seen from behind,
 //!   with the capture circle; `success_vs_turbulence.png`: success rate (and its interval)
-//!   per turbulence-intensity bin.
+//!   per turbulence-intensity bin; `success_vs_condition.png`: success rate per cell of the
+//!   grid as a heat map of airspeed by altitude.
+//!
+//! The cells are those of the core's gain schedule ([`ibvs_core::gains::SCHEDULE_SPEEDS_MPS`]
+//! by [`ibvs_core::gains::SCHEDULE_ALTITUDES_M`]), taken from the run's true flight
+//! condition; a condition on an inner grid line is in the cell below it on that axis, as the
+//! core's interpolation takes it ([`condition_cell`]), so every run is in exactly one cell or
+//! outside the grid.
 //!
 //! Definitions (also in `docs/scenarios.md`, "Monte Carlo campaigns"):
 //! - *success*: the run docked ([`Outcome::Docked`]: inside the capture radius and the
@@ -721,10 +729,119 @@ pub struct CampaignSummary {
     pub closure_mps: Option<Percentiles>,
     /// Success rate per turbulence-intensity bin.
     pub success_by_turbulence: Vec<TurbulenceBin>,
+    /// Success per cell of the gain schedule's grid of flight conditions ([`condition_cell`]
+    /// says which cell a run belongs to): altitude bands from the lowest, in each the
+    /// airspeed bands from the slowest. Every run is in one cell or in
+    /// `outside_condition_grid`.
+    #[serde(default)]
+    pub success_by_condition: Vec<ConditionCell>,
+    /// Runs whose flight condition is outside the grid (not in any cell).
+    #[serde(default)]
+    pub outside_condition_grid: u64,
     /// The dispersion flown.
     pub dispersion: DispersionSection,
     /// Definitions of the numbers above.
     pub definitions: BTreeMap<String, String>,
+}
+
+/// Success in one cell of the gain schedule's grid of flight conditions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ConditionCell {
+    /// True airspeed range of the cell, m/s: `[lower, upper]` edges of the grid.
+    pub airspeed_mps: [f64; 2],
+    /// Altitude range of the cell, m.
+    pub altitude_m: [f64; 2],
+    /// Runs in the cell.
+    pub runs: u64,
+    /// Of which docked (within the sortie).
+    pub docked: u64,
+    /// Docked fraction (0 for an empty cell).
+    pub success_rate: f64,
+    /// Its 95 % Wilson interval (`[0, 1]` for an empty cell).
+    pub success_ci95: Interval,
+    /// Of which docked at the first attempt.
+    pub first_attempt_docked: u64,
+    /// Runs in the cell ending in an unsafe state (module doc).
+    pub unsafe_end_states: u64,
+}
+
+/// The edges of the gain schedule's grid, true airspeed (m/s) and altitude (m), from the
+/// core's generated grid (so that the cells follow it when it is regenerated).
+pub fn condition_grid() -> (Vec<f64>, Vec<f64>) {
+    use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
+    (
+        SCHEDULE_SPEEDS_MPS.iter().map(|&v| f64::from(v)).collect(),
+        SCHEDULE_ALTITUDES_M.iter().map(|&h| f64::from(h)).collect(),
+    )
+}
+
+/// The band of `edges` (ascending) that holds `x`: band `k` is `edges[k]..=edges[k + 1]`,
+/// and a value on an inner edge belongs to the band below it (as the core's schedule
+/// interpolates: a node shared by two cells is the lower cell's). `None` when `x` is not
+/// finite, is outside `edges[0]..=edges[last]`, or there are fewer than two edges.
+fn band(edges: &[f64], x: f64) -> Option<usize> {
+    let (first, last) = (*edges.first()?, *edges.last()?);
+    if edges.len() < 2 || !x.is_finite() || x < first || x > last {
+        return None;
+    }
+    edges.iter().skip(1).position(|&hi| x <= hi)
+}
+
+/// The cell of the gain schedule's grid ([`condition_grid`]) that holds a flight condition:
+/// `(airspeed band, altitude band)`, each 0 for the lowest. Cell `(i, j)` is
+/// `speeds[i]..=speeds[i + 1]` by `altitudes[j]..=altitudes[j + 1]`; a condition on an inner
+/// grid line belongs to the cell below it on that axis (the lower speed, the lower altitude;
+/// at an inner node, the cell whose upper corner it is), as the core's interpolation takes
+/// it, so that every condition of the envelope is in exactly one cell. `None` outside the
+/// grid or when not finite.
+pub fn condition_cell(airspeed_mps: f64, altitude_m: f64) -> Option<(usize, usize)> {
+    let (speeds, altitudes) = condition_grid();
+    Some((band(&speeds, airspeed_mps)?, band(&altitudes, altitude_m)?))
+}
+
+/// The per-cell table of `records` over the grid ([`condition_cell`]) and the number of runs
+/// outside it.
+fn condition_table(records: &[RunRecord]) -> (Vec<ConditionCell>, u64) {
+    let (speeds, altitudes) = condition_grid();
+    let ns = speeds.len().saturating_sub(1);
+    let mut cells: Vec<ConditionCell> = altitudes
+        .windows(2)
+        .flat_map(|h| {
+            speeds.windows(2).map(move |v| ConditionCell {
+                airspeed_mps: [v[0], v[1]],
+                altitude_m: [h[0], h[1]],
+                runs: 0,
+                docked: 0,
+                success_rate: 0.0,
+                success_ci95: wilson(0, 0),
+                first_attempt_docked: 0,
+                unsafe_end_states: 0,
+            })
+        })
+        .collect();
+    let mut outside = 0;
+    for r in records {
+        let cell = condition_cell(r.inputs.airspeed_mps, r.inputs.altitude_m)
+            .and_then(|(i, j)| cells.get_mut(j * ns + i));
+        match cell {
+            Some(c) => {
+                c.runs += 1;
+                c.docked += u64::from(r.docked);
+                c.first_attempt_docked += u64::from(r.first_attempt_docked);
+                c.unsafe_end_states += u64::from(r.unsafe_end);
+            }
+            None => outside += 1,
+        }
+    }
+    for c in &mut cells {
+        c.success_rate = if c.runs > 0 {
+            c.docked as f64 / c.runs as f64
+        } else {
+            0.0
+        };
+        c.success_ci95 = wilson(c.docked, c.runs);
+    }
+    (cells, outside)
 }
 
 /// Bins of the turbulence intensity: equal widths over the dispersed range (one bin per 50
@@ -795,6 +912,10 @@ fn definitions() -> BTreeMap<String, String> {
             "the probe tip crossed the drogue plane after the controller had stopped pushing (a missed approach or a breakaway; counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
         ),
         (
+            "success_by_condition",
+            "runs per cell of the gain schedule's grid of true airspeed by altitude (the run's true condition); a run on an inner grid line is in the cell below it on that axis (lower speed, lower altitude), as the controller's schedule interpolates; runs outside the grid are counted in outside_condition_grid",
+        ),
+        (
             "ci95",
             "Wilson score interval, 95 % (z = 1.96)",
         ),
@@ -833,6 +954,7 @@ pub fn summarise(
             *ends.entry(e.clone()).or_insert(0) += 1;
         }
     }
+    let (cells, outside) = condition_table(records);
     CampaignSummary {
         scenario: meta.scenario.clone(),
         campaign_runs: meta.runs,
@@ -853,6 +975,8 @@ pub fn summarise(
         miss_m: Percentiles::of(records.iter().filter_map(|r| r.miss_m)),
         closure_mps: Percentiles::of(records.iter().filter_map(|r| r.closure_mps)),
         success_by_turbulence: turbulence_bins(records, dispersion),
+        success_by_condition: cells,
+        outside_condition_grid: outside,
         dispersion: dispersion.clone(),
         definitions: definitions(),
     }
@@ -992,6 +1116,156 @@ fn success_plot(path: &Path, title: &str, bins: &[TurbulenceBin]) -> Result<(), 
     })
 }
 
+/// The heat map's colour of a success rate: red at 90 % and below, yellow at 98 %, green at
+/// 100 % (linear between), so that a cell under 98 % stands out.
+fn success_colour(rate: f64) -> RGBColor {
+    const STOPS: [(f64, (f64, f64, f64)); 3] = [
+        (0.90, (214.0, 39.0, 40.0)),
+        (0.98, (255.0, 221.0, 87.0)),
+        (1.00, (44.0, 160.0, 44.0)),
+    ];
+    let r = if rate.is_finite() { rate } else { 0.0 };
+    let (lo, hi) = match STOPS.windows(2).find(|w| r <= w[1].0) {
+        Some(w) => (w[0], w[1]),
+        None => (STOPS[1], STOPS[2]),
+    };
+    let f = ((r - lo.0) / (hi.0 - lo.0)).clamp(0.0, 1.0);
+    let mix = |a: f64, b: f64| (a + (b - a) * f).round().clamp(0.0, 255.0) as u8;
+    RGBColor(
+        mix(lo.1.0, hi.1.0),
+        mix(lo.1.1, hi.1.1),
+        mix(lo.1.2, hi.1.2),
+    )
+}
+
+/// Success rate per cell of the gain schedule's grid as a heat map of airspeed by altitude,
+/// each cell labelled with its rate, docked and run counts (and unsafe end states if any), a
+/// colour bar, and the runs outside the grid in a note.
+fn condition_plot(
+    path: &Path,
+    title: &str,
+    cells: &[ConditionCell],
+    outside: u64,
+) -> Result<(), OutputError> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let (speeds, altitudes) = condition_grid();
+    let (x0, x1) = (
+        speeds.first().copied().unwrap_or(0.0),
+        speeds.last().copied().unwrap_or(1.0),
+    );
+    let (y0, y1) = (
+        altitudes.first().copied().unwrap_or(0.0),
+        altitudes.last().copied().unwrap_or(1.0),
+    );
+    let (x1, y1) = (x1.max(x0 + 1.0), y1.max(y0 + 1.0));
+    let centred = |size: u32| {
+        TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Center, VPos::Center))
+    };
+    plot::figure(path, (1000, 720), |root| {
+        let (main, note) = root.split_vertically(670);
+        let (chart_area, bar_area) = main.split_horizontally(870);
+        let mut chart = ChartBuilder::on(&chart_area)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(dbg)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("true airspeed, m/s")
+            .y_desc("altitude, m")
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(dbg)?;
+        chart
+            .draw_series(cells.iter().map(|c| {
+                let fill = if c.runs > 0 {
+                    success_colour(c.success_rate)
+                } else {
+                    RGBColor(225, 225, 225)
+                };
+                Rectangle::new(
+                    [
+                        (c.airspeed_mps[0], c.altitude_m[0]),
+                        (c.airspeed_mps[1], c.altitude_m[1]),
+                    ],
+                    fill.filled(),
+                )
+            }))
+            .map_err(dbg)?;
+        chart
+            .draw_series(cells.iter().map(|c| {
+                Rectangle::new(
+                    [
+                        (c.airspeed_mps[0], c.altitude_m[0]),
+                        (c.airspeed_mps[1], c.altitude_m[1]),
+                    ],
+                    BLACK.stroke_width(1),
+                )
+            }))
+            .map_err(dbg)?;
+        let labels = cells.iter().flat_map(|c| {
+            let at = (
+                0.5 * (c.airspeed_mps[0] + c.airspeed_mps[1]),
+                0.5 * (c.altitude_m[0] + c.altitude_m[1]),
+            );
+            let lines = if c.runs > 0 {
+                let mut l = vec![
+                    format!("{:.1} %", 100.0 * c.success_rate),
+                    format!("{}/{} runs", c.docked, c.runs),
+                ];
+                if c.unsafe_end_states > 0 {
+                    l.push(format!("unsafe {}", c.unsafe_end_states));
+                }
+                l
+            } else {
+                vec!["no runs".to_string()]
+            };
+            let top = -11 * (lines.len() as i32 - 1);
+            lines.into_iter().enumerate().map(move |(k, l)| {
+                let size = if k == 0 { 20 } else { 15 };
+                EmptyElement::at(at) + Text::new(l, (0, top + 22 * k as i32), centred(size))
+            })
+        });
+        chart.draw_series(labels).map_err(dbg)?;
+        // The colour bar: 90..100 %.
+        let mut bar = ChartBuilder::on(&bar_area)
+            .margin_top(50)
+            .margin_bottom(55)
+            .margin_right(15)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0.0..1.0, 0.9..1.0)
+            .map_err(dbg)?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_labels(6)
+            .y_label_formatter(&|v| format!("{:.0} %", 100.0 * v))
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(dbg)?;
+        bar.draw_series((0..100).map(|k| {
+            let (a, b) = (0.9 + 0.001 * f64::from(k), 0.9 + 0.001 * f64::from(k + 1));
+            Rectangle::new([(0.0, a), (1.0, b)], success_colour(0.5 * (a + b)).filled())
+        }))
+        .map_err(dbg)?;
+        note.draw(&Text::new(
+            format!(
+                "colour: success rate (90 % and below red, 98 % yellow). Runs outside the grid: {outside}. \
+                 A run on an inner grid line is in the cell below it (lower speed, lower altitude)."
+            ),
+            (20, 15),
+            ("sans-serif", 14),
+        ))
+        .map_err(dbg)?;
+        Ok(())
+    })
+}
+
 fn write_text(path: &Path, text: &str) -> Result<(), McError> {
     std::fs::write(path, text).map_err(io_err(path))
 }
@@ -1058,6 +1332,15 @@ pub fn write_campaign(
             meta.scenario, summary.runs
         ),
         &summary.success_by_turbulence,
+    )?;
+    condition_plot(
+        &dir.join("success_vs_condition.png"),
+        &format!(
+            "{}: success rate per cell of the gain schedule, {} runs{part}",
+            meta.scenario, summary.runs
+        ),
+        &summary.success_by_condition,
+        summary.outside_condition_grid,
     )?;
     Ok(summary)
 }

@@ -13,12 +13,13 @@ use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{self, Outcome};
 use ibvs_core::Controller;
 
-const FILES: [&str; 5] = [
+const FILES: [&str; 6] = [
     "runs.jsonl",
     "campaign.json",
     "summary.json",
     "miss_scatter.png",
     "success_vs_turbulence.png",
+    "success_vs_condition.png",
 ];
 
 fn temp(name: &str) -> PathBuf {
@@ -77,6 +78,13 @@ fn shards_merge_into_exactly_the_one_machine_campaign() {
             "{file} differs between one machine and the merged shards"
         );
     }
+    // The per-cell table of the flight condition is the one machine's, and holds every run.
+    let (one, all) = (summary(&whole), summary(&merged));
+    assert_eq!(one.success_by_condition, all.success_by_condition);
+    assert_eq!(
+        all.success_by_condition.iter().map(|c| c.runs).sum::<u64>() + all.outside_condition_grid,
+        runs
+    );
     // A run is a function of the scenario and its index: the records match single runs.
     let recs = records(&whole);
     assert_eq!(
@@ -163,6 +171,150 @@ fn the_summary_counts_every_run_once_and_states_its_intervals() {
         assert_eq!(&bytes[1..4], b"PNG", "{png}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The cell rule at the grid's nodes, on its lines, inside and outside, with the edges taken
+/// from the core's generated grid.
+#[test]
+fn a_condition_on_a_grid_line_is_in_the_cell_below_it() {
+    use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
+    let v: Vec<f64> = SCHEDULE_SPEEDS_MPS.iter().map(|&x| f64::from(x)).collect();
+    let h: Vec<f64> = SCHEDULE_ALTITUDES_M.iter().map(|&x| f64::from(x)).collect();
+    assert_eq!(montecarlo::condition_grid(), (v.clone(), h.clone()));
+    let (nv, nh) = (v.len() - 1, h.len() - 1);
+    let mid = |a: &[f64], k: usize| 0.5 * (a[k] + a[k + 1]);
+    let cell = montecarlo::condition_cell;
+    // An inner node belongs to the cell whose upper corner it is.
+    assert_eq!(cell(v[1], h[1]), Some((0, 0)));
+    assert_eq!(cell(v[2], h[2]), Some((1, 1)));
+    // Just above it in speed, in altitude, in both: the next cells.
+    let up = |x: f64| x + 1e-9 * x.abs().max(1.0);
+    assert_eq!(cell(up(v[1]), h[1]), Some((1, 0)));
+    assert_eq!(cell(v[1], up(h[1])), Some((0, 1)));
+    assert_eq!(cell(up(v[1]), up(h[1])), Some((1, 1)));
+    // On an inner speed line, an inner altitude line: the lower cell on that axis only.
+    assert_eq!(cell(v[1], mid(&h, 1)), Some((0, 1)));
+    assert_eq!(cell(mid(&v, 2), h[1]), Some((2, 0)));
+    // Inside a cell; the grid's outer corners and edges are inside.
+    assert_eq!(cell(mid(&v, 1), mid(&h, 2)), Some((1, 2)));
+    assert_eq!(cell(v[0], h[0]), Some((0, 0)));
+    assert_eq!(cell(v[nv], h[nh]), Some((nv - 1, nh - 1)));
+    assert_eq!(cell(v[0], mid(&h, 1)), Some((0, 1)));
+    // Outside, on either side of either axis, and not finite: no cell.
+    let down = |x: f64| x - 1e-9 * x.abs().max(1.0);
+    for (s, a) in [
+        (down(v[0]), mid(&h, 0)),
+        (up(v[nv]), mid(&h, 0)),
+        (mid(&v, 0), down(h[0])),
+        (mid(&v, 0), up(h[nh])),
+        (f64::NAN, h[1]),
+        (v[1], f64::INFINITY),
+    ] {
+        assert_eq!(cell(s, a), None, "{s} m/s, {a} m");
+    }
+}
+
+/// A small `envelope` campaign, flown in two shards and merged: the per-cell table counts
+/// every run once, its cells' counts add up to the totals and to the shards', each cell's
+/// interval is Wilson's, the heat map is written; a run moved outside the grid or onto a
+/// node is counted where the rule says. 24 runs: about 6 s on 2 cores in the debug
+/// profile.
+#[test]
+fn an_envelope_campaign_counts_every_run_in_one_condition_cell() {
+    let f = ScenarioFile::load("envelope").expect("preset");
+    let runs = 24;
+    let root = temp("envelope");
+    let shards: Vec<PathBuf> = (1..=2)
+        .map(|k| {
+            let d = root.join(format!("shard{k}"));
+            campaign(&f, runs, Some(Shard { k, m: 2 }), 2, &d);
+            d
+        })
+        .collect();
+    let merged = root.join("all");
+    montecarlo::merge(&shards, &merged).expect("merges");
+    let (s, recs) = (summary(&merged), records(&merged));
+    assert_eq!(s.runs, runs);
+    let cells = &s.success_by_condition;
+    let (v, h) = montecarlo::condition_grid();
+    assert_eq!(cells.len(), (v.len() - 1) * (h.len() - 1));
+    let sum = |f: &dyn Fn(&montecarlo::ConditionCell) -> u64| cells.iter().map(f).sum::<u64>();
+    assert_eq!(sum(&|c| c.runs) + s.outside_condition_grid, s.runs);
+    assert_eq!(s.outside_condition_grid, 0, "the envelope is the grid");
+    assert_eq!(sum(&|c| c.docked), s.docked);
+    assert_eq!(sum(&|c| c.unsafe_end_states), s.unsafe_end_states);
+    assert_eq!(sum(&|c| c.first_attempt_docked), s.first_attempt_docked);
+    for (k, c) in cells.iter().enumerate() {
+        let (i, j) = (k % (v.len() - 1), k / (v.len() - 1));
+        assert_eq!(c.airspeed_mps, [v[i], v[i + 1]], "cell {k}");
+        assert_eq!(c.altitude_m, [h[j], h[j + 1]], "cell {k}");
+        let inside: Vec<&RunRecord> = recs
+            .iter()
+            .filter(|r| {
+                montecarlo::condition_cell(r.inputs.airspeed_mps, r.inputs.altitude_m)
+                    == Some((i, j))
+            })
+            .collect();
+        assert_eq!(c.runs, inside.len() as u64, "cell {k}");
+        assert_eq!(c.docked, inside.iter().filter(|r| r.docked).count() as u64);
+        assert_eq!(
+            c.success_ci95,
+            montecarlo::wilson(c.docked, c.runs),
+            "cell {k}"
+        );
+        if c.runs > 0 {
+            assert_eq!(c.success_rate, c.docked as f64 / c.runs as f64);
+        }
+        // The shards' tables add up to the merged one.
+        let of = |d: &PathBuf| summary(d).success_by_condition[k];
+        let (a, b) = (of(&shards[0]), of(&shards[1]));
+        assert_eq!(
+            (
+                a.runs + b.runs,
+                a.docked + b.docked,
+                a.unsafe_end_states + b.unsafe_end_states
+            ),
+            (c.runs, c.docked, c.unsafe_end_states),
+            "cell {k}"
+        );
+    }
+    let populated = cells.iter().filter(|c| c.runs > 0).count();
+    assert!(
+        populated >= 4,
+        "24 runs over the envelope fill {populated} cells"
+    );
+    for d in shards.iter().chain([&merged]) {
+        let bytes = std::fs::read(d.join("success_vs_condition.png")).expect("plot written");
+        assert_eq!(&bytes[1..4], b"PNG", "{}", d.display());
+    }
+    // Moved outside the grid, a run leaves the cells; moved onto an inner node, it joins the
+    // cell whose upper corner the node is.
+    let meta = CampaignMeta::new(&f, runs, None);
+    let mut moved = recs.clone();
+    moved[0].inputs.airspeed_mps = v[v.len() - 1] + 1.0;
+    moved[1].inputs.airspeed_mps = v[1];
+    moved[1].inputs.altitude_m = h[1];
+    let before = |r: &RunRecord| {
+        montecarlo::condition_cell(r.inputs.airspeed_mps, r.inputs.altitude_m)
+            .map(|(i, j)| j * (v.len() - 1) + i)
+    };
+    let t = montecarlo::summarise(&meta, &f.dispersion, &moved);
+    assert_eq!(t.outside_condition_grid, 1);
+    let mut expected: Vec<u64> = cells.iter().map(|c| c.runs).collect();
+    for (r, delta) in [(&recs[0], -1i64), (&recs[1], -1)] {
+        if let Some(k) = before(r) {
+            expected[k] = expected[k].checked_add_signed(delta).expect("counted");
+        }
+    }
+    expected[0] += 1;
+    assert_eq!(
+        t.success_by_condition
+            .iter()
+            .map(|c| c.runs)
+            .collect::<Vec<_>>(),
+        expected
+    );
+    std::fs::remove_dir_all(&root).ok();
 }
 
 #[test]
