@@ -276,11 +276,13 @@ impl ControllerConfig {
         check("nav_envelope.max_rate_radps", n.max_rate_radps, true)?;
         // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range, at
         // every trim of the gain schedule (interpolated trims lie between the nodes').
-        let trim = gains::SCHEDULE
-            .iter()
-            .flatten()
-            .map(|d| max_to(libm::fabsf(d.trim.theta_rad), libm::fabsf(d.trim.alpha_rad)))
-            .fold(0.0, max_to);
+        let mut trim = 0.0;
+        for row in &gains::SCHEDULE {
+            for d in row {
+                trim = max_to(trim, libm::fabsf(d.trim.theta_rad));
+                trim = max_to(trim, libm::fabsf(d.trim.alpha_rad));
+            }
+        }
         require(
             "nav_envelope.max_angle_rad (plus the largest trim pitch and angle of attack, <= 0.8 rad)",
             n.max_angle_rad + trim <= SIN_COS_MAX_RAD,

@@ -282,6 +282,11 @@ impl Derived {
 struct Scheduled {
     /// The flight condition of the latest valid navigation sample.
     condition: FlightCondition,
+    /// The condition of the design in use.
+    design_condition: FlightCondition,
+    /// `condition` is inside the envelope and not `design_condition`: the next
+    /// [`Controller::follow_schedule`] loads its design.
+    pending: bool,
     /// The trim of the design in use (the last condition inside the envelope).
     trim: TrimPoint,
     /// Its command `[elevator, throttle, aileron, rudder]`.
@@ -341,6 +346,8 @@ impl Controller {
             last_nav: NavSample::default(),
             scheduled: Scheduled {
                 condition: FlightCondition::default(),
+                design_condition: FlightCondition::default(),
+                pending: false,
                 trim: d.trim,
                 trim_command: u,
                 open_loop_throttle: 0.0,
@@ -384,20 +391,32 @@ impl Controller {
         self.scheduled.open_loop_throttle = u[1] - cfg.modes.breakaway_throttle_cut;
     }
 
-    /// Follows the gain schedule to a valid navigation sample's flight condition: a new
-    /// condition inside the docking envelope gets its design; outside, the design in use
-    /// stays and the error is kept (the mode logic refuses or breaks away on it). Out of
-    /// line: in steady refuelling the condition does not change.
-    #[inline(never)]
-    fn follow_schedule(&mut self, condition: FlightCondition) {
+    /// Follows the gain schedule: when the latest valid navigation sample put the flight
+    /// condition somewhere new inside the docking envelope, interpolates the design there
+    /// and flies it from the next step on. Returns true when it loaded a design.
+    ///
+    /// Not part of [`Controller::step`]: the interpolation (every number of the design, a
+    /// few thousand instructions) would sit on the control path's deadline for a condition
+    /// that changes over tens of seconds. The flight loop calls it after each step, once the
+    /// command is out (the firmware's control task, the simulator's flight computer), so a
+    /// new condition is flown one step after it arrives. Until it is called the step flies
+    /// the design it has; whether the condition is inside the envelope the step decides
+    /// itself, every step.
+    pub fn follow_schedule(&mut self) -> bool {
         let s = &mut self.scheduled;
-        s.condition = condition;
-        match schedule::design_at(condition) {
+        if !s.pending {
+            return false;
+        }
+        s.pending = false;
+        match schedule::design_at(s.condition) {
             Ok(d) => {
-                s.error = None;
+                s.design_condition = s.condition;
                 self.set_design(&d);
+                true
             }
-            Err(e) => s.error = Some(e),
+            // The step checked the condition inside; not reached, and refused rather than
+            // flown if it were.
+            Err(_) => false,
         }
     }
 
@@ -645,8 +664,11 @@ impl Controller {
             Some(NavError::OutsideEnvelope) => bump(&mut c.nav_outside_envelope, true),
         }
         let nav_valid = nav_error.is_none();
-        if nav_valid && input.nav.condition != self.scheduled.condition {
-            self.follow_schedule(input.nav.condition);
+        if nav_valid {
+            let (s, condition) = (&mut self.scheduled, input.nav.condition);
+            s.error = schedule::check(condition).err();
+            s.pending = s.error.is_none() && condition != s.design_condition;
+            s.condition = condition;
         }
         let in_envelope = self.scheduled.error.is_none();
         let c = &mut self.counters;

@@ -223,20 +223,44 @@ enum Beyond {
 }
 
 /// The envelope's corners: lowest and highest true airspeed (m/s) and altitude (m).
+#[inline]
 pub fn envelope() -> ([f32; 2], [f32; 2]) {
     let ends = |a: &[f32]| [a.first().copied(), a.last().copied()].map(|v| v.unwrap_or(f32::NAN));
     (ends(&SCHEDULE_SPEEDS_MPS), ends(&SCHEDULE_ALTITUDES_M))
 }
 
-/// The design at `condition`, interpolated in its cell of the grid.
-pub fn design_at(condition: FlightCondition) -> Result<DesignPoint, ScheduleError> {
+/// Whether `condition` is inside the docking envelope (the grid's rectangle, edges
+/// included), and which limit it is beyond if not: a few comparisons, no interpolation (the
+/// controller's step asks this every step; [`design_at`] only when the condition changes).
+#[inline]
+pub fn check(condition: FlightCondition) -> Result<(), ScheduleError> {
     let FlightCondition {
         true_airspeed_mps: v,
         altitude_m: h,
     } = condition;
+    let ([v_lo, v_hi], [h_lo, h_hi]) = envelope();
     if !(v.is_finite() && h.is_finite()) {
-        return Err(ScheduleError::NonFinite);
+        Err(ScheduleError::NonFinite)
+    } else if v < v_lo {
+        Err(ScheduleError::AirspeedLow)
+    } else if v > v_hi {
+        Err(ScheduleError::AirspeedHigh)
+    } else if h < h_lo {
+        Err(ScheduleError::AltitudeLow)
+    } else if h > h_hi {
+        Err(ScheduleError::AltitudeHigh)
+    } else {
+        Ok(())
     }
+}
+
+/// The design at `condition`, interpolated in its cell of the grid.
+pub fn design_at(condition: FlightCondition) -> Result<DesignPoint, ScheduleError> {
+    check(condition)?;
+    let FlightCondition {
+        true_airspeed_mps: v,
+        altitude_m: h,
+    } = condition;
     let (i, s) = locate(&SCHEDULE_SPEEDS_MPS, v).map_err(|b| match b {
         Beyond::Low => ScheduleError::AirspeedLow,
         Beyond::High => ScheduleError::AirspeedHigh,
@@ -400,6 +424,21 @@ mod tests {
         for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert_eq!(at(bad, h), Err(ScheduleError::NonFinite));
             assert_eq!(at(v, bad), Err(ScheduleError::NonFinite));
+        }
+        // `check` answers as `design_at` does, without interpolating.
+        for (v, h) in [
+            (v_lo.next_down(), h),
+            (v_hi.next_up(), h),
+            (v, h_lo.next_down()),
+            (v, h_hi.next_up()),
+            (f32::NAN, h),
+            (v, h),
+        ] {
+            let c = FlightCondition {
+                true_airspeed_mps: v,
+                altitude_m: h,
+            };
+            assert_eq!(check(c), design_at(c).map(|_| ()), "{v} m/s, {h} m");
         }
         // The corners themselves are inside.
         for (v, h) in [(v_lo, h_lo), (v_lo, h_hi), (v_hi, h_lo), (v_hi, h_hi)] {

@@ -1166,23 +1166,43 @@ fn condition(v: f32, h: f32) -> FlightCondition {
 
 #[test]
 fn the_controller_flies_the_gain_schedules_design_at_the_navigations_flight_condition() {
-    // In standby the command is the trim command: the scheduled trim's at 150 m/s, 6,000 m,
-    // not the single-point design's; back at the default condition, the design's again.
+    // In standby the command is the trim command: the scheduled trim's at 150 m/s, 6,000 m
+    // from the step after the follow-up loaded it, not the single-point design's; back at
+    // the default condition, the design's again.
     let mut rig = Rig::new(config());
     assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+    assert!(!rig.ctl.follow_schedule(), "nothing new: nothing loaded");
     let elsewhere = condition(150.0, 6000.0);
     let design = design_at(elsewhere).expect("inside the envelope");
+    assert_ne!(design.trim.command(), trim(), "another trim there");
     rig.nav.condition = elsewhere;
     let out = rig.step_with(MID, |_| {});
-    assert_eq!(out.command.as_array(), design.trim.command());
-    assert_ne!(design.trim.command(), trim(), "another trim there");
+    assert_eq!(
+        out.command.as_array(),
+        trim(),
+        "the step flies the design it has"
+    );
     assert_eq!(out.envelope_error, None);
+    assert!(
+        rig.ctl.follow_schedule(),
+        "the new condition's design loaded"
+    );
+    assert!(!rig.ctl.follow_schedule(), "once");
+    assert_eq!(
+        rig.step_with(MID, |_| {}).command.as_array(),
+        design.trim.command()
+    );
     // Engaged there, the loops run on the scheduled gains: the same state and frame give
     // another command than the single-point design's.
     let engaged_at = |c: FlightCondition| {
         let mut nav = perturbed_nav();
         nav.condition = c;
-        let mut rig = Rig::engaged(config(), nav, MID);
+        let mut rig = Rig::new(config());
+        rig.nav = nav;
+        rig.step_with(MID, |_| {});
+        rig.ctl.follow_schedule();
+        let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+        assert_eq!(out.mode, Mode::Approach);
         rig.step_with(MID, |_| {}).command.as_array()
     };
     let (here, there) = (
@@ -1194,7 +1214,25 @@ fn the_controller_flies_the_gain_schedules_design_at_the_navigations_flight_cond
         "{here:?} vs {there:?}"
     );
     rig.nav.condition = FlightCondition::default();
+    rig.step_with(MID, |_| {});
+    assert!(rig.ctl.follow_schedule());
     assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+}
+
+#[test]
+fn outside_the_envelope_the_follow_up_loads_nothing_and_the_design_in_use_stays() {
+    let mut rig = Rig::new(config());
+    rig.nav.condition = condition(120.0, 9000.0);
+    rig.step_with(MID, |_| {});
+    assert!(!rig.ctl.follow_schedule());
+    assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+    // A non-finite condition is not even taken (the navigation is rejected).
+    rig.nav.condition = condition(f32::NAN, 3000.0);
+    assert_eq!(
+        rig.step_with(MID, |_| {}).nav_error,
+        Some(NavError::NonFinite)
+    );
+    assert!(!rig.ctl.follow_schedule());
 }
 
 #[test]

@@ -336,7 +336,8 @@ struct ModeModel {
     last_nav: NavSample,
     /// Its flight condition is inside the docking envelope.
     in_envelope: bool,
-    /// The gain schedule's design in use: at the last condition inside the envelope.
+    /// The gain schedule's design in use: at the last condition inside the envelope before
+    /// this step (the flight loop loads it after a step, for the next).
     design: DesignPoint,
     /// Refuelling: the attempt, the last no-go, steps stable at the station, steps in the
     /// mode, steps since engage.
@@ -370,13 +371,20 @@ impl ModeModel {
         );
         self.in_envelope = (v[0]..=v[v.len() - 1]).contains(&c.true_airspeed_mps)
             && (h[0]..=h[h.len() - 1]).contains(&c.altitude_m);
-        if self.in_envelope {
-            self.design = design_at(*c).map_err(|e| format!("inside, yet {e}"))?;
-        }
+        let next_design = if self.in_envelope {
+            Some(design_at(*c).map_err(|e| format!("inside, yet {e}"))?)
+        } else {
+            None
+        };
         match cfg.procedure {
-            Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg)),
-            Procedure::Refuelling => self.step_refuelling(input, out, cfg),
+            Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg))?,
+            Procedure::Refuelling => self.step_refuelling(input, out, cfg)?,
         }
+        // The flight loop's follow-up after the step: the next step flies this design.
+        if let Some(d) = next_design {
+            self.design = d;
+        }
+        Ok(())
     }
 
     fn step_paper(
@@ -713,6 +721,7 @@ fn check_sequence(cfg: ControllerConfig, inputs: &[ControllerInput]) -> Result<(
     for (k, input) in inputs.iter().enumerate() {
         let out = ctl.step(input);
         check_output(&cfg, &mut model, k, input, &out)?;
+        ctl.follow_schedule();
     }
     Ok(())
 }
@@ -778,6 +787,7 @@ fn check_wire(cfg: ControllerConfig, bytes: &[u8]) -> Result<(), TestCaseError> 
         if let Some(u) = uplink {
             let out = ctl.step(&u.input);
             check_output(&cfg, &mut model, k, &u.input, &out)?;
+            ctl.follow_schedule();
             k += 1;
         }
     }
@@ -856,6 +866,7 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
         let mut ctl = Controller::new(refuelling()).expect("valid configuration");
         for input in &inputs {
             let out = ctl.step(input);
+            ctl.follow_schedule();
             seen.insert(format!("{:?}", out.mode));
             if let Some(r) = out.breakaway_reason {
                 seen.insert(format!("{r:?}"));

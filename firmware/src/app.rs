@@ -303,6 +303,9 @@ impl App {
     ) -> (Downlink, Option<Event>) {
         let before = self.controller.mode();
         let (out, step, stack) = control_step::<C>(&mut self.controller, input);
+        // The gain schedule's follow-up, outside the step's timed window (a new flight
+        // condition is flown from the next step; `Controller::follow_schedule`).
+        self.controller.follow_schedule();
         if let Some(bytes) = stack
             && bytes > self.control_stack_max
         {

@@ -15,7 +15,8 @@
 //! with the largest stack any step used (where the counter measures it:
 //! [`CostCounter::stack_of`]). Then the link: one measurement frame decoded (and again with
 //! the navigation at exactly zero: each zero byte is a COBS block boundary, dearer than a
-//! data byte), the CRC-32C alone, one command frame encoded.
+//! data byte), the CRC-32C alone, one command frame encoded. And the gain schedule's
+//! follow-up (`Controller::follow_schedule`) at a condition off the grid.
 //!
 //! Invariant: the figures are of the measured calls only (the counter is read right before
 //! and after each; one count of each pair is the read itself, under QEMU).
@@ -24,7 +25,7 @@ use core::hint::black_box;
 
 use ibvs_core::estimator::TipGeometry;
 use ibvs_core::gains::TRIM;
-use ibvs_core::nav::NavSample;
+use ibvs_core::nav::{FlightCondition, NavSample};
 use ibvs_core::wire::{
     CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Uplink, encode_downlink,
     encode_uplink,
@@ -75,6 +76,10 @@ pub struct Costs {
     pub crc_measurement: u32,
     /// Encoding the command frame: postcard, CRC, COBS.
     pub encode_command: u32,
+    /// The gain schedule's follow-up after a step at a new flight condition inside the
+    /// envelope (off the grid): the interpolation of the whole design and its loading
+    /// (`Controller::follow_schedule`, outside the step).
+    pub follow_schedule: u32,
 }
 
 impl Costs {
@@ -108,7 +113,8 @@ impl core::fmt::Display for Json<'_> {
             f,
             ", \"steps\": {}, \"script_ok\": {}, \"measurement_frame_bytes\": {}, \
              \"decode_measurement\": {}, \"decode_measurement_zero_nav\": {}, \
-             \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}}}",
+             \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}, \
+             \"follow_schedule\": {}}}",
             c.steps,
             c.script_ok,
             c.measurement_frame_len,
@@ -116,7 +122,8 @@ impl core::fmt::Display for Json<'_> {
             c.decode_measurement_zero_nav,
             c.crc_measurement,
             c.command_frame_len,
-            c.encode_command
+            c.encode_command,
+            c.follow_schedule
         )
     }
 }
@@ -279,12 +286,35 @@ fn steps<C: CostCounter>(
     Some((controller, input, last))
 }
 
+/// The follow-up's cost at 137 m/s, 4,100 m (inside a cell, on no grid line), after one
+/// step there; `None` if it loaded no design.
+fn follow_schedule<C: CostCounter>() -> Option<u32> {
+    let mut controller = Controller::new(ControllerConfig::default()).ok()?;
+    let mut input = engage_input();
+    input.nav.condition = FlightCondition {
+        true_airspeed_mps: 137.0,
+        altitude_m: 4100.0,
+    };
+    controller.step(&input);
+    let t0 = C::now();
+    let loaded = black_box(&mut controller).follow_schedule();
+    let cost = C::now().wrapping_sub(t0);
+    loaded.then_some(cost)
+}
+
 /// Measures the costs once (the figures are deterministic under QEMU).
 pub fn measure<C: CostCounter>() -> Costs {
     let mut costs = Costs::default();
+    // First, on its own controller (not alive beside the script's: the stack stays that of
+    // one controller at a time).
+    let follow = follow_schedule::<C>();
     let Some((controller, mut input, output)) = steps::<C>(&mut costs) else {
         return costs;
     };
+    match follow {
+        Some(cost) => costs.follow_schedule = cost,
+        None => costs.script_ok = false,
+    }
     input.nav = perturbed_nav();
     let up = Uplink {
         seq: input.measurement.seq,
@@ -348,7 +378,10 @@ mod tests {
             text.contains("\"step_max\": 10, \"step_stack_bytes\": 200, "),
             "{text}"
         );
-        assert!(text.ends_with("\"encode_command\": 0}"), "{text}");
+        assert!(
+            text.ends_with("\"encode_command\": 0, \"follow_schedule\": 0}"),
+            "{text}"
+        );
         assert_eq!(text.matches('{').count(), text.matches('}').count());
     }
 
@@ -357,7 +390,7 @@ mod tests {
         let c = measure::<NoCounter>();
         assert!(c.script_ok, "{c:?}");
         assert!(c.steps > 300, "{c:?}");
-        assert!((74..=90).contains(&c.measurement_frame_len), "{c:?}");
+        assert!((82..=98).contains(&c.measurement_frame_len), "{c:?}");
         assert!((126..=297).contains(&c.command_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
         assert_eq!(c.step_stack_bytes, None);

@@ -46,8 +46,12 @@ pub trait FlightComputer {
 }
 
 impl FlightComputer for Controller {
+    /// The control task as the firmware runs it: the step, then the gain schedule's
+    /// follow-up once the command is out ([`Controller::follow_schedule`]).
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
-        Controller::step(self, input)
+        let output = Controller::step(self, input);
+        self.follow_schedule();
+        output
     }
 }
 

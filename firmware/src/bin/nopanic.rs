@@ -1,7 +1,8 @@
 //! # nopanic: a link-time proof that the flight code cannot panic
 //!
 //! This binary calls [`Controller::new`](ibvs_core::Controller::new) on an arbitrary configuration and
-//! [`Controller::step`](ibvs_core::Controller::step) on arbitrary inputs (both through `black_box`, so the optimiser must
+//! [`Controller::step`](ibvs_core::Controller::step) on arbitrary inputs, each followed by
+//! [`Controller::follow_schedule`](ibvs_core::Controller::follow_schedule) (all through `black_box`, so the optimiser must
 //! keep every path), then the link code on arbitrary bytes: [`FrameDecoder::feed`](ibvs_core::wire::FrameDecoder::feed), the
 //! measurement frame's deserialisation and [`encode_downlink`](ibvs_core::wire::encode_downlink). Its panic handler calls a
 //! function that does not exist. The release build (LTO, dead code removed) therefore links
@@ -37,6 +38,8 @@ mod target {
                 for _ in 0..black_box(2u32) {
                     let input: ControllerInput = black_box(ControllerInput::default());
                     black_box(controller.step(&input));
+                    // The gain schedule's follow-up the flight loop runs after each step.
+                    black_box(black_box(&mut controller).follow_schedule());
                 }
             }
             // The link: any byte, any command frame.
