@@ -322,7 +322,7 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
         montecarlo::write_campaign(&args.out, &CampaignMeta::new(&f, runs, shard), &lines)?;
     println!("{}", montecarlo::one_line(&summary));
     eprintln!(
-        "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png}}",
+        "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png, success_vs_condition.png}}",
         indices.len(),
         args.jobs.unwrap_or_else(rayon::current_num_threads),
         args.out.display()
