@@ -691,6 +691,28 @@ mod tests {
     }
 
     #[test]
+    fn at_another_trim_the_fixed_mount_looks_up_and_the_geometry_turns_it_level() {
+        // A tip camera mounted level at 0.11 rad of trim pitch, flown at 0.26 rad: the
+        // boresight is 0.15 rad up. A drogue 4 m straight ahead on the tanker's axis is then
+        // below the boresight, 4 cos(0.15) m along it and 4 sin(0.15) m down in its axes.
+        let cam = CameraMount {
+            position_body_m: [6.06, 0.54, -0.86],
+            pitch_down_rad: 0.11,
+        };
+        let g = TipGeometry::new(&cam, [6.06, 0.54, -0.86], 0.26);
+        let e = 0.15_f32;
+        let (z, y) = (4.0 * libm::cosf(e), 4.0 * libm::sinf(e));
+        let r = g.drogue_from_tip([0.0, y / z], z, [0.0; 3], g.tip_image());
+        for (got, want) in r.iter().zip([0.0, 0.0, 4.0]) {
+            assert!((got - want).abs() < 1e-4, "{r:?}");
+        }
+        // Unturned (the mount's own trim), the same frame would read 0.6 m low.
+        let level = TipGeometry::new(&cam, [6.06, 0.54, -0.86], 0.11);
+        let r = level.drogue_from_tip([0.0, y / z], z, [0.0; 3], level.tip_image());
+        assert!((r[1] - y).abs() < 1e-4, "{r:?}");
+    }
+
+    #[test]
     fn a_set_back_camera_removes_the_tip_offset() {
         // Camera 2.66 m behind the tip and 0.24 m above it: the tip is 2.66 m ahead and
         // 0.24 m below in the camera's trim-level axes.
