@@ -9,7 +9,7 @@
 //! Method (`docs/benchmarks.md`):
 //! 1. Record: the in-process controller (default configuration, the one the firmware runs)
 //!    flies several docking scenarios in the simulator (calm air with the wake, hose and LED
-//!    camera; the ideal world; level II turbulence (three missed approaches and a docking);
+//!    camera; the ideal world; level II turbulence (a missed approach and a docking);
 //!    the bow wave; 50 % frame loss; three runs
 //!    that break away: 90 % frame loss, a frozen tracker, a slow throttle (overspeed)), and
 //!    every step's [`ControllerInput`] is kept; each must end as named, or the run fails. Two more input
@@ -187,7 +187,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "level2 seed 1: level II turbulence (0.7 m/s), three missed approaches, docks on the fourth",
+            "level2 seed 1: level II turbulence (0.7 m/s), a late no-go in the first capture, docks on the second approach",
             preset("level2", 1, |_| {})?,
             vec![],
             "docked",
