@@ -9,7 +9,8 @@
 //! outputs are in fact identical bit for bit, and that is checked too.
 
 use host_sim::pil::{PilFlightComputer, firmware_elf};
-use host_sim::sim::{Run, Scenario, run};
+use host_sim::scenario::ScenarioFile;
+use host_sim::sim::{Outcome, Run, Scenario, run};
 use ibvs_core::wire::CostUnit;
 use ibvs_core::{Controller, ControllerConfig, Mode};
 
@@ -20,7 +21,8 @@ fn modes(r: &Run) -> Vec<Mode> {
     m
 }
 
-fn pil_matches_in_process(scenario: &Scenario) {
+/// Flies `scenario` in-process and through PIL, checks they match; the in-process run.
+fn pil_matches_in_process(scenario: &Scenario) -> Run {
     let mut controller = Controller::new(ControllerConfig::default()).expect("default config");
     let reference = run(scenario, &mut controller).expect("in-process run");
 
@@ -57,17 +59,38 @@ fn pil_matches_in_process(scenario: &Scenario) {
     let cost = stats.step_cost.expect("step costs");
     assert_eq!(cost.unit, CostUnit::Instructions);
     assert!(0 < cost.min && cost.min <= cost.median && cost.median <= cost.max);
+    reference
 }
 
 /// The default scenario (the full environment): identical through PIL.
 #[test]
 fn pil_flies_the_default_scenario_like_the_in_process_controller() {
-    pil_matches_in_process(&Scenario::default());
+    let r = pil_matches_in_process(&Scenario::default());
+    assert_eq!(r.summary.outcome, Outcome::Docked, "{:?}", r.summary);
 }
 
 /// The vertical slice's scenario (calm air, ideal camera): docks, identically through PIL.
 #[test]
 fn pil_docks_the_ideal_scenario_like_the_in_process_controller() {
     let s = Scenario::ideal();
-    pil_matches_in_process(&s);
+    let r = pil_matches_in_process(&s);
+    assert_eq!(r.summary.outcome, Outcome::Docked, "{:?}", r.summary);
+}
+
+/// The default scenario at another flight condition (137 m/s, 4,100 m: inside a cell of the
+/// gain schedule): the firmware loads the interpolated design after its first step, as the
+/// in-process flight computer does, and docks identically.
+#[test]
+fn pil_flies_the_gain_schedule_off_its_grid_like_the_in_process_controller() {
+    let text = "name = \"off-grid\"\n[flight]\nairspeed_mps = 137.0\naltitude_m = 4100.0\n";
+    let file = ScenarioFile::parse(text, "off-grid").expect("scenario");
+    assert_eq!(
+        file.controller_config(),
+        ControllerConfig::default(),
+        "the firmware's"
+    );
+    let r = pil_matches_in_process(&file.scenario());
+    assert_eq!(r.summary.outcome, Outcome::Docked, "{:?}", r.summary);
+    let first = r.samples.first().expect("steps");
+    assert_eq!(first.output.envelope_error, None);
 }
