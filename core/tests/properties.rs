@@ -20,7 +20,7 @@
 
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
-use ibvs_core::nav::NavSample;
+use ibvs_core::nav::{FlightCondition, NavSample};
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw, Procedure,
 };
@@ -83,9 +83,31 @@ fn field(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
     prop_oneof![3 => lo..=hi, 1 => special()]
 }
 
-/// Navigation inside the default envelope (small perturbations).
+/// Navigation inside the default envelope: mostly the small perturbations of formation
+/// flight (speed within 1.5 m/s of the tanker's, rates within 0.1 rad/s, so that approaches
+/// run on to the terminal phase and docking), sometimes anything the envelope accepts (up to
+/// 25 m/s and 1.4 rad/s: overspeed breakaways), at the design's flight condition or another
+/// inside the docking envelope.
 fn plausible_nav() -> impl Strategy<Value = NavSample> {
-    (
+    let small = (
+        (
+            -100.0_f32..100.0,
+            -50.0_f32..50.0,
+            -0.1_f32..0.1,
+            -1.5_f32..1.5,
+            -0.1_f32..0.1,
+            -0.1_f32..0.1,
+        ),
+        (
+            -50.0_f32..50.0,
+            -0.1_f32..0.1,
+            -0.2_f32..0.2,
+            -0.05_f32..0.05,
+            -0.1_f32..0.1,
+            -0.1_f32..0.1,
+        ),
+    );
+    let large = (
         (
             -100.0_f32..100.0,
             -50.0_f32..50.0,
@@ -102,23 +124,50 @@ fn plausible_nav() -> impl Strategy<Value = NavSample> {
             -1.4_f32..1.4,
             -1.4_f32..1.4,
         ),
-    )
-        .prop_map(|(lon, lat)| {
-            NavSample::from_array([
-                lon.0, lon.1, lon.2, lon.3, lon.4, lon.5, lat.0, lat.1, lat.2, lat.3, lat.4, lat.5,
-            ])
-        })
+    );
+    let at = |(true_airspeed_mps, altitude_m)| FlightCondition {
+        true_airspeed_mps,
+        altitude_m,
+    };
+    let condition = prop_oneof![
+        8 => Just(FlightCondition::default()),
+        1 => (100.0_f32..=170.0, 500.0_f32..=8000.0).prop_map(at),
+    ];
+    (prop_oneof![4 => small, 1 => large], condition).prop_map(|((lon, lat), condition)| NavSample {
+        condition,
+        ..NavSample::from_array([
+            lon.0, lon.1, lon.2, lon.3, lon.4, lon.5, lat.0, lat.1, lat.2, lat.3, lat.4, lat.5,
+        ])
+    })
 }
 
-/// Navigation with every field drawn from [`field`]: often invalid.
+/// [`plausible_nav`] at a flight condition anywhere from 50 to 250 m/s and -1,000 to
+/// 12,000 m: mostly outside the docking envelope.
+fn nav_anywhere() -> impl Strategy<Value = NavSample> {
+    (plausible_nav(), 50.0_f32..250.0, -1000.0_f32..12_000.0).prop_map(|(n, v, h)| NavSample {
+        condition: FlightCondition {
+            true_airspeed_mps: v,
+            altitude_m: h,
+        },
+        ..n
+    })
+}
+
+/// Navigation with every field drawn from [`field`], the flight condition too (inside or
+/// outside the docking envelope, or not a number): often invalid.
 fn wild_nav() -> impl Strategy<Value = NavSample> {
     let f = || field(-2.0, 2.0);
     (
         (f(), f(), f(), f(), f(), f()),
         (f(), f(), f(), f(), f(), f()),
+        (field(50.0, 250.0), field(-1000.0, 12_000.0)),
     )
-        .prop_map(|(lon, lat)| {
-            NavSample::from_array([
+        .prop_map(|(lon, lat, (true_airspeed_mps, altitude_m))| NavSample {
+            condition: FlightCondition {
+                true_airspeed_mps,
+                altitude_m,
+            },
+            ..NavSample::from_array([
                 lon.0, lon.1, lon.2, lon.3, lon.4, lon.5, lat.0, lat.1, lat.2, lat.3, lat.4, lat.5,
             ])
         })
@@ -160,7 +209,7 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
     (
         seq_step(),
         frame_content(),
-        prop_oneof![3 => plausible_nav(), 2 => wild_nav()],
+        prop_oneof![15 => plausible_nav(), 1 => nav_anywhere(), 10 => wild_nav()],
         prop::bool::weighted(0.3),
         request(),
         prop_oneof![6 => Just(1_usize), 1 => 2_usize..40],
@@ -244,6 +293,8 @@ fn check_invariants(
     let mut before = *ctl.counters();
     for (k, input) in inputs.iter().enumerate() {
         let out = ctl.step(input);
+        // The flight loop's follow-up (the gain schedule), as the firmware runs it.
+        ctl.follow_schedule();
         let after = *ctl.counters();
         let at = format!("step {k}, input {input:?}, output {out:?}");
 
@@ -392,4 +443,52 @@ proptest! {
     fn pbvs_engages_on_the_first_plausible_step(m in plausible_frame(), nav in plausible_nav()) {
         engages_on_first_step(pbvs_config(), m, nav)?;
     }
+}
+
+/// What the generated sequences reach under the paper's IBVS law: the modes, how many
+/// sequences end in an overspeed breakaway, how many leave the docking envelope. The header's promise (the hold limits, the
+/// terminal phase and docking are reached, not only standby and early breakaways) checked.
+#[test]
+fn the_generated_sequences_reach_the_terminal_phase_and_docking_not_mostly_overspeed() {
+    use ibvs_core::BreakawayReason;
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
+    let mut runner = TestRunner::new_with_rng(
+        Config::default(),
+        TestRng::from_seed(RngAlgorithm::ChaCha, &[3; 32]),
+    );
+    let strategy = input_sequence();
+    let (cases, mut terminal, mut docked, mut overspeed, mut outside) = (256, 0, 0, 0, 0);
+    for _ in 0..cases {
+        let inputs = strategy.new_tree(&mut runner).expect("a case").current();
+        let mut ctl = Controller::new(ibvs_config()).expect("valid configuration");
+        let (mut t, mut d, mut e, mut last) = (false, false, false, None);
+        for input in &inputs {
+            let out = ctl.step(input);
+            ctl.follow_schedule();
+            t |= out.mode == Mode::Terminal;
+            d |= out.mode == Mode::Docked;
+            e |= out.envelope_error.is_some();
+            last = out.breakaway_reason;
+        }
+        terminal += usize::from(t);
+        docked += usize::from(d);
+        overspeed += usize::from(last == Some(BreakawayReason::Overspeed));
+        outside += usize::from(e);
+    }
+    println!(
+        "of {cases}: terminal {terminal}, docked {docked}, overspeed {overspeed}, outside the envelope {outside}"
+    );
+    assert!(
+        terminal >= 10 && docked >= 5,
+        "terminal {terminal}, docked {docked} of {cases}"
+    );
+    assert!(
+        overspeed < cases / 4,
+        "{overspeed} of {cases} end in an overspeed breakaway"
+    );
+    assert!(
+        outside >= 10,
+        "{outside} of {cases} sequences leave the docking envelope"
+    );
 }
