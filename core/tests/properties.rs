@@ -14,7 +14,10 @@
 //! approach (paper) or pre-contact (refuelling) after its first step.
 //!
 //! Inputs come in runs (one input repeated for up to 40 steps, its sequence number advancing)
-//! so that the hold limits, the terminal phase and docking are reached, not only standby.
+//! so that the hold limits, the terminal phase and docking are reached, not only standby
+//! (checked by `the_generated_sequences_reach_...`); the navigation's flight condition moves
+//! inside and outside the docking envelope, and the gain schedule's follow-up runs after
+//! every step, as in the flight loop.
 //! 256 cases per property by default (under a second in a debug build); set `PROPTEST_CASES`
 //! for a longer run.
 
@@ -476,6 +479,9 @@ fn the_generated_sequences_reach_the_terminal_phase_and_docking_not_mostly_overs
         overspeed += usize::from(last == Some(BreakawayReason::Overspeed));
         outside += usize::from(e);
     }
+    // Measured with this seed: terminal 33, docked 22, overspeed 17, outside the envelope
+    // 196 of 256 (with speeds of up to 25 m/s in every plausible sample, 167 of 256 ended in
+    // an overspeed breakaway).
     println!(
         "of {cases}: terminal {terminal}, docked {docked}, overspeed {overspeed}, outside the envelope {outside}"
     );
