@@ -16,6 +16,12 @@
 //! drogue's estimated velocity, closing at `a`; [`crate::mode`]); in breakaway at
 //! `modes.breakaway_accel_mps2`; otherwise at `velocity_limits.max_accel_mps2`.
 //!
+//! The inner loops fly the gain schedule's design at the navigation's flight condition
+//! ([`crate::schedule`]): the step checks the condition against the docking envelope every
+//! step (outside it an engage is refused and an engaged receiver breaks away), and
+//! [`Controller::follow_schedule`], which the flight loop calls after each step, loads the
+//! design of a new condition for the next step.
+//!
 //! Invariants: `step` never panics and returns finite commands inside the actuator limits
 //! for every input (property-tested in `tests/properties.rs`).
 

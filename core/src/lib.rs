@@ -18,7 +18,8 @@
 //!                                             ▼
 //!                      outer::{ibvs, pbvs} or the procedure's guidance ─► desired velocity
 //!                                             ▼
-//!                      inner: LQR + integral action per channel (gains: generated)
+//!                      inner: LQR + integral action per channel (gains: generated,
+//!                        scheduled on the flight condition by `schedule`)
 //!                                             ▼
 //!                      actuator: absolute, saturated surface and throttle commands ─► ControllerOutput
 //! ```
