@@ -168,6 +168,24 @@ pub fn trim_output() -> ControllerOutput {
     }
 }
 
+/// Bytes of the safe-state frame the fault path sends (trim commands, `LinkStatus::PANIC`),
+/// written into `buf`: a `0x00` first, then the command frame. The fault can come in the
+/// middle of a frame the link was sending; the leading zero ends that frame on the
+/// receiver's side (it fails its check and is counted), so the safe frame decodes whole. A
+/// zero with nothing before it is idle fill, not an error. `None` if it did not encode.
+pub fn safe_frame(buf: &mut [u8; MAX_FRAME_LEN + 1]) -> Option<&[u8]> {
+    let d = Downlink {
+        seq: u32::MAX,
+        link_status: LinkStatus(LinkStatus::PANIC),
+        output: trim_output(),
+        ..Downlink::default()
+    };
+    let (zero, rest) = buf.split_first_mut()?;
+    *zero = 0;
+    let n = encode_downlink(&d, rest).ok()?.len();
+    buf.get(..=n)
+}
+
 /// The application state: the controller and both ends of the link protocol.
 #[derive(Debug, Clone)]
 pub struct App {
@@ -525,6 +543,41 @@ mod tests {
 
     use super::*;
     use crate::one_step::engage_input;
+
+    #[test]
+    fn the_safe_frame_decodes_whole_after_a_frame_cut_off_mid_way() {
+        let mut safe = [0u8; MAX_FRAME_LEN + 1];
+        let safe = safe_frame(&mut safe).expect("encodes");
+        assert_eq!(safe[0], 0, "a delimiter first");
+        // Half of an ordinary command frame (the fault cut it off), then the safe frame.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let other = encode_downlink(&Downlink::default(), &mut buf).expect("encodes");
+        let mut stream: Vec<u8> = other[..other.len() / 2].to_vec();
+        stream.extend_from_slice(safe);
+        let mut decoder = FrameDecoder::new();
+        let results: Vec<_> = stream
+            .iter()
+            .filter_map(|&b| decoder.feed(b).map(|r| r.and_then(|p| p.downlink())))
+            .collect();
+        assert_eq!(
+            results.len(),
+            2,
+            "the cut frame, then the safe one: {results:?}"
+        );
+        assert!(results[0].is_err(), "the cut frame fails its check");
+        let d = results[1].as_ref().expect("the safe frame decodes");
+        assert_eq!(d.link_status, LinkStatus(LinkStatus::PANIC));
+        assert_eq!(d.output.command.as_array(), trim_command());
+        // Without the delimiter the two would run together into one bad frame.
+        let mut joined: Vec<u8> = other[..other.len() / 2].to_vec();
+        joined.extend_from_slice(&safe[1..]);
+        let mut decoder = FrameDecoder::new();
+        let bad: Vec<_> = joined
+            .iter()
+            .filter_map(|&b| decoder.feed(b).map(|r| r.and_then(|p| p.downlink())))
+            .collect();
+        assert!(bad.len() == 1 && bad[0].is_err(), "{bad:?}");
+    }
 
     /// An in-memory board: bytes in, frames out, periods on demand.
     #[derive(Default)]

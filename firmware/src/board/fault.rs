@@ -24,10 +24,8 @@ use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m_rt::{ExceptionFrame, exception};
-use ibvs_core::wire::{Downlink, LinkStatus, MAX_FRAME_LEN, encode_downlink};
+use ibvs_core::wire::MAX_FRAME_LEN;
 use stm32f4xx_hal::pac::USART1;
-
-use crate::app::trim_output;
 
 /// Marks a written record ("FAUL").
 const MAGIC: u32 = 0x4641_554C;
@@ -143,17 +141,12 @@ fn write_raw(bytes: &[u8]) {
     }
 }
 
-/// Sends the safe-state command frame: trim commands, `LinkStatus::PANIC`.
+/// Sends the safe-state command frame (trim commands, `LinkStatus::PANIC`), after a `0x00`
+/// that ends any frame the fault cut off ([`crate::app::safe_frame`]).
 pub fn send_safe_frame() {
-    let d = Downlink {
-        seq: u32::MAX,
-        link_status: LinkStatus(LinkStatus::PANIC),
-        output: trim_output(),
-        ..Downlink::default()
-    };
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    if let Ok(frame) = encode_downlink(&d, &mut buf) {
-        write_raw(frame);
+    let mut buf = [0u8; MAX_FRAME_LEN + 1];
+    if let Some(bytes) = crate::app::safe_frame(&mut buf) {
+        write_raw(bytes);
     }
 }
 
