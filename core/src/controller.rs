@@ -288,17 +288,11 @@ impl Derived {
 struct Scheduled {
     /// The flight condition of the latest valid navigation sample.
     condition: FlightCondition,
-    /// The condition of the design in use.
+    /// The condition of the design in use: when `condition` is another inside the
+    /// envelope, the next [`Controller::follow_schedule`] loads its design.
     design_condition: FlightCondition,
-    /// `condition` is inside the envelope and not `design_condition`: the next
-    /// [`Controller::follow_schedule`] loads its design.
-    pending: bool,
     /// The trim of the design in use (the last condition inside the envelope).
     trim: TrimPoint,
-    /// Its command `[elevator, throttle, aileron, rudder]`.
-    trim_command: [f32; 4],
-    /// Throttle of an open-loop breakaway (trim minus the cut).
-    open_loop_throttle: f32,
     /// Why `condition` has no design, when it has none.
     error: Option<ScheduleError>,
 }
@@ -353,10 +347,7 @@ impl Controller {
             scheduled: Scheduled {
                 condition: FlightCondition::default(),
                 design_condition: FlightCondition::default(),
-                pending: false,
                 trim: d.trim,
-                trim_command: u,
-                open_loop_throttle: 0.0,
                 error: None,
             },
             last_outer: OuterOutput::default(),
@@ -393,8 +384,6 @@ impl Controller {
         self.predict_lat.set_model(d.predict_lat);
         self.derived.tip = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, d.trim.theta_rad);
         self.scheduled.trim = d.trim;
-        self.scheduled.trim_command = u;
-        self.scheduled.open_loop_throttle = u[1] - cfg.modes.breakaway_throttle_cut;
     }
 
     /// Follows the gain schedule: when the latest valid navigation sample put the flight
@@ -410,10 +399,9 @@ impl Controller {
     /// itself, every step.
     pub fn follow_schedule(&mut self) -> bool {
         let s = &mut self.scheduled;
-        if !s.pending {
+        if s.error.is_some() || s.condition == s.design_condition {
             return false;
         }
-        s.pending = false;
         match schedule::design_at(s.condition) {
             Ok(d) => {
                 s.design_condition = s.condition;
@@ -673,7 +661,6 @@ impl Controller {
         if nav_valid {
             let (s, condition) = (&mut self.scheduled, input.nav.condition);
             s.error = schedule::check(condition).err();
-            s.pending = s.error.is_none() && condition != s.design_condition;
             s.condition = condition;
         }
         let in_envelope = self.scheduled.error.is_none();
@@ -776,7 +763,7 @@ impl Controller {
         let v_des = self.v_cmd;
 
         // 5. Inner loops and saturation.
-        let trim = self.scheduled.trim_command;
+        let trim = self.scheduled.trim.command();
         let open_loop = mode == Mode::Breakaway && !nav_valid;
         let requested = if mode == Mode::Standby {
             // Engage assumes trimmed formation flight: integrators and engine model at zero.
@@ -787,7 +774,12 @@ impl Controller {
             self.predict_lat.reset();
             trim
         } else if open_loop {
-            [trim[0], self.scheduled.open_loop_throttle, trim[2], trim[3]]
+            [
+                trim[0],
+                trim[1] - self.cfg.modes.breakaway_throttle_cut,
+                trim[2],
+                trim[3],
+            ]
         } else {
             // The state feedback acts on the (late) sample predicted over the INS latency;
             // the integrators and the mode logic read the sample itself (`predictor`).
