@@ -382,17 +382,24 @@ pub enum SimError {
     Wake(#[from] WakeError),
 }
 
-/// Builds the world of a scenario: the hose settled in its steady trail in the run's steady
-/// air (free stream and wake), the camera on the mount level at `trim` (the installation's
-/// design trim), seeded random processes;
-/// the air of `model`'s atmosphere at the flight condition ([`crate::world::flight`]).
-pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
+/// The scenario's flight condition, checked against the models' validity in `model`'s
+/// atmosphere.
+fn valid_flight(s: &Scenario, model: &F16) -> Result<FlightCondition, SimError> {
     let flight = s.flight();
     flight.validate(
         |h| model.air_at(h),
         "flight.airspeed_mps",
         "flight.altitude_m",
     )?;
+    Ok(flight)
+}
+
+/// Builds the world of a scenario: the hose settled in its steady trail in the run's steady
+/// air (free stream and wake), the camera on the mount level at `trim` (the installation's
+/// design trim), seeded random processes;
+/// the air of `model`'s atmosphere at the flight condition ([`crate::world::flight`]).
+pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<World, SimError> {
+    let flight = valid_flight(s, model)?;
     let air = model.air_at(flight.altitude_m);
     let reference_air = model.air_at(FlightCondition::DEFAULT.altitude_m);
     let wake = s
@@ -501,21 +508,16 @@ pub fn run_observed(
         ));
     }
     let model = F16::new(s.xcg)?;
-    let flight = s.flight();
-    flight.validate(
-        |h| model.air_at(h),
-        "flight.airspeed_mps",
-        "flight.altitude_m",
-    )?;
-    let trim_at = |m: &F16| {
-        m.trim_straight_level(flight.airspeed_mps, flight.altitude_m)
+    let flight = valid_flight(s, &model)?;
+    let trim_at = |m: &F16, c: FlightCondition| {
+        m.trim_straight_level(c.airspeed_mps, c.altitude_m)
             .map_err(|source| SimError::Trim {
-                airspeed_mps: flight.airspeed_mps,
-                altitude_m: flight.altitude_m,
+                airspeed_mps: c.airspeed_mps,
+                altitude_m: c.altitude_m,
                 source,
             })
     };
-    let trim = trim_at(&model)?;
+    let trim = trim_at(&model, flight)?;
     // The navigation reports perturbations from the trim of the nominal cg at the run's
     // flight condition: at another cg the receiver trims at a different attitude, which it
     // then sees. The camera is fixed to the airframe, level at the trim of the installation's
@@ -524,19 +526,12 @@ pub fn run_observed(
     let design_trim = if s.xcg == NOMINAL_XCG {
         trim
     } else {
-        trim_at(&F16::new(NOMINAL_XCG)?)?
+        trim_at(&F16::new(NOMINAL_XCG)?, flight)?
     };
     let mount_trim = if flight == FlightCondition::DEFAULT {
         design_trim
     } else {
-        let d = FlightCondition::DEFAULT;
-        F16::new(NOMINAL_XCG)?
-            .trim_straight_level(d.airspeed_mps, d.altitude_m)
-            .map_err(|source| SimError::Trim {
-                airspeed_mps: d.airspeed_mps,
-                altitude_m: d.altitude_m,
-                source,
-            })?
+        trim_at(&F16::new(NOMINAL_XCG)?, FlightCondition::DEFAULT)?
     };
     let (ts, dt) = (
         CONTROL_PERIOD_S,
