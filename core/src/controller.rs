@@ -297,6 +297,30 @@ struct Scheduled {
     error: Option<ScheduleError>,
 }
 
+/// Why [`Controller::reconfigure`] refused a configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ReconfigureError {
+    /// Only a controller in standby takes a new configuration; this is the mode it was in.
+    NotStandby(Mode),
+    /// The configuration failed validation.
+    Invalid(ConfigError),
+}
+
+impl core::fmt::Display for ReconfigureError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NotStandby(m) => write!(
+                f,
+                "configuration refused: the controller is in {m:?}, not Standby"
+            ),
+            Self::Invalid(e) => e.fmt(f),
+        }
+    }
+}
+
+impl core::error::Error for ReconfigureError {}
+
 /// The docking controller.
 #[derive(Debug, Clone)]
 pub struct Controller {
@@ -356,6 +380,21 @@ impl Controller {
         };
         c.set_design(d);
         Ok(c)
+    }
+
+    /// Replaces the configuration (the flight computer's configuration frame), in
+    /// [`Mode::Standby`] only: the controller is rebuilt from `cfg` as [`Controller::new`]
+    /// builds it, and keeps its [`Counters`] (nothing counted before is lost). Atomic: on any
+    /// error the controller is unchanged and flies the configuration it had.
+    pub fn reconfigure(&mut self, cfg: ControllerConfig) -> Result<(), ReconfigureError> {
+        let mode = self.mode();
+        if mode != Mode::Standby {
+            return Err(ReconfigureError::NotStandby(mode));
+        }
+        let mut next = Self::new(cfg).map_err(ReconfigureError::Invalid)?;
+        next.counters = self.counters;
+        *self = next;
+        Ok(())
     }
 
     /// Flies the design `d` from the next command on (the integrators, the engine estimate

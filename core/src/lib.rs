@@ -95,6 +95,6 @@ pub mod schedule;
 pub mod wire;
 
 pub use config::{ConfigError, ControllerConfig, OuterLaw};
-pub use controller::{Controller, ControllerInput, ControllerOutput, Counters};
+pub use controller::{Controller, ControllerInput, ControllerOutput, Counters, ReconfigureError};
 pub use mode::{BreakawayReason, Mode, ModeRequest, NoGoReason};
 pub use procedure::{Procedure, RefuellingConfig};

@@ -11,16 +11,36 @@
 //! # Frame layout
 //!
 //! ```text
-//! payload  = version (u8, PROTOCOL_VERSION) | kind (u8: 'M' = 0x4D measurement, 'C' = 0x43 command)
-//!          | body (postcard: Uplink or Downlink, at most MAX_BODY_LEN = 311 bytes)
+//! payload  = version (u8, PROTOCOL_VERSION) | kind (u8, FrameKind) | body (postcard, at most
+//!            MAX_BODY_LEN = 630 bytes)
 //!          | CRC-32C of version..body (Castagnoli, CRC_32_ISCSI: poly 0x1EDC6F41 reflected,
 //!            init and xorout 0xFFFFFFFF), 4 bytes little-endian
-//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 320 bytes
+//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 640 bytes
 //! ```
 //!
+//! | kind byte | direction | body | answer |
+//! |---|---|---|---|
+//! | `M` 0x4D measurement | peer to flight computer | [`Uplink`] | a `C` frame |
+//! | `C` 0x43 command | flight computer to peer | [`Downlink`] | - |
+//! | `W` 0x57 configuration write | peer to flight computer | [`ControllerConfig`] | a `K` frame |
+//! | `R` 0x52 configuration read | peer to flight computer | empty | a `K` frame |
+//! | `K` 0x4B configuration report | flight computer to peer | [`ConfigReport`] | - |
+//!
+//! # Configuration
+//!
+//! The controller's configuration travels whole: a `W` frame carries a complete
+//! [`ControllerConfig`] (403 bytes of postcard for the default), and the flight computer
+//! answers with a [`ConfigReport`]: what it did ([`ConfigStatus`]: applied, rejected by
+//! validation with the field and problem, refused because the controller is not in standby,
+//! or malformed) and the configuration it now flies, with that configuration's
+//! [`config_id`]. Whole rather than by field path, because validation relates fields to one
+//! another (a closing-speed band, a gate radius inside another): a whole configuration is
+//! validated and applied in one piece between two steps, so no step ever flies half of one.
+//! Every command frame carries the active configuration's id ([`Downlink::config_id`]), so a
+//! log says which configuration flew each step.//!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 82 to 90 bytes on the wire, a command frame 137 to 317 (measured by
+//! A measurement frame is 82 to 90 bytes on the wire, a command frame 140 to 332 (measured by
 //! the tests with the largest values of every field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
@@ -40,19 +60,26 @@
 use crc::{CRC_32_ISCSI, Crc};
 use serde::{Deserialize, Serialize};
 
-use crate::controller::{ControllerInput, ControllerOutput, Counters};
+use crate::config::{ConfigError, ConfigProblem, ControllerConfig};
+use crate::controller::{ControllerInput, ControllerOutput, Counters, ReconfigureError};
 use crate::measurement::{MeasurementError, SequenceCheck};
+use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 5;
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
-pub const MAX_FRAME_LEN: usize = 320;
+pub const MAX_FRAME_LEN: usize = 640;
 
 /// Largest payload (header, body and CRC) before COBS encoding, bytes. COBS adds one code
-/// byte per block of at most 254 data bytes, so at most 2 to a payload of up to 508 bytes;
+/// byte per block of at most 254 data bytes, so at most 3 to a payload of up to 762 bytes;
 /// with the terminating zero such a frame is at most [`MAX_FRAME_LEN`].
-pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 3;
+pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 4;
+
+/// Largest payload of a measurement or command frame (the frames of every step), bytes: the
+/// largest command frame's 330-byte payload with a margin (tested). Their encoder clears a
+/// scratch buffer of this size, not of [`MAX_PAYLOAD_LEN`].
+pub const STEP_PAYLOAD_LEN: usize = 344;
 
 /// Header bytes before the body: version and kind.
 pub const HEADER_LEN: usize = 2;
@@ -77,6 +104,12 @@ pub enum FrameKind {
     Measurement,
     /// [`Downlink`]: flight computer to peer.
     Command,
+    /// [`ControllerConfig`]: peer to flight computer, to fly from now on (standby only).
+    ConfigWrite,
+    /// Empty body: peer to flight computer, asking for the configuration flown.
+    ConfigRead,
+    /// [`ConfigReport`]: flight computer to peer, the answer to a write or a read.
+    ConfigReport,
 }
 
 impl FrameKind {
@@ -85,6 +118,9 @@ impl FrameKind {
         match self {
             Self::Measurement => b'M',
             Self::Command => b'C',
+            Self::ConfigWrite => b'W',
+            Self::ConfigRead => b'R',
+            Self::ConfigReport => b'K',
         }
     }
 
@@ -93,6 +129,9 @@ impl FrameKind {
         match b {
             b'M' => Some(Self::Measurement),
             b'C' => Some(Self::Command),
+            b'W' => Some(Self::ConfigWrite),
+            b'R' => Some(Self::ConfigRead),
+            b'K' => Some(Self::ConfigReport),
             _ => None,
         }
     }
@@ -201,6 +240,11 @@ pub struct LinkCounters {
     pub rx_errors: u32,
     /// Command frames that could not be encoded or written (never expected; not sent).
     pub tx_errors: u32,
+    /// Configuration writes applied.
+    pub config_applied: u32,
+    /// Configuration writes refused: invalid, malformed, or not in standby (each answered
+    /// with its [`ConfigStatus`]).
+    pub config_refused: u32,
 }
 
 fn bump(c: &mut u32, by: u32) {
@@ -269,6 +313,117 @@ pub struct Downlink {
     pub link: LinkCounters,
     /// What the step cost.
     pub cost: Cost,
+    /// [`config_id`] of the configuration the controller flies.
+    pub config_id: u32,
+}
+
+/// A field path inside a [`ConfigReport`], with the validation's note on the rule broken
+/// (the longest the validation names is 88 bytes; a longer one would be cut, never dropped).
+pub type FieldPath = heapless::String<96>;
+
+/// What the flight computer did with a configuration frame.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigStatus {
+    /// Answer to a read: the configuration flown, nothing changed.
+    #[default]
+    Active,
+    /// The written configuration passed validation and is flown from the next step.
+    Applied,
+    /// The written configuration failed validation: the field (dotted path) and the
+    /// problem. The previous configuration is still flown.
+    Rejected {
+        /// Dotted path of the offending field, as [`ConfigError::field`].
+        field: FieldPath,
+        /// What is wrong with it.
+        problem: ConfigProblem,
+    },
+    /// Refused: the controller was not in standby (its mode). The previous configuration is
+    /// still flown.
+    NotStandby(Mode),
+    /// The frame's body is not a configuration (its CRC was good). Nothing changed.
+    Malformed,
+}
+
+impl ConfigStatus {
+    /// The status of a validation failure.
+    pub fn rejected(e: ConfigError) -> Self {
+        let mut field = FieldPath::new();
+        // A path longer than the string is cut at a character boundary, never dropped.
+        for c in e.field.chars() {
+            if field.push(c).is_err() {
+                break;
+            }
+        }
+        Self::Rejected {
+            field,
+            problem: e.problem,
+        }
+    }
+
+    /// The status of a refused [`crate::Controller::reconfigure`].
+    pub fn refused(e: ReconfigureError) -> Self {
+        match e {
+            ReconfigureError::NotStandby(m) => Self::NotStandby(m),
+            ReconfigureError::Invalid(e) => Self::rejected(e),
+        }
+    }
+}
+
+/// Configuration report: the flight computer's answer to a configuration write or read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigReport {
+    /// Frame counter, shared with the command frames ([`Downlink::seq`]).
+    pub seq: u32,
+    /// What was done with the frame answered.
+    pub status: ConfigStatus,
+    /// [`config_id`] of `config`.
+    pub config_id: u32,
+    /// The configuration the controller flies after the frame answered. (The link's
+    /// counters of configuration frames, [`LinkCounters::config_applied`] and
+    /// [`LinkCounters::config_refused`], come in the next command frame.)
+    pub config: ControllerConfig,
+}
+
+/// A frame the flight computer takes: what the peer sends.
+#[allow(
+    clippy::large_enum_variant,
+    reason = "no allocator to box the configuration; a message lives on the stack for one frame"
+)]
+#[derive(Debug, Clone, PartialEq)]
+pub enum PeerMessage {
+    /// A measurement frame.
+    Measurement(Uplink),
+    /// A configuration write.
+    ConfigWrite(ControllerConfig),
+    /// A configuration read.
+    ConfigRead,
+}
+
+/// A frame the peer takes: what the flight computer sends.
+#[allow(
+    clippy::large_enum_variant,
+    reason = "no allocator to box the configuration; a message lives on the stack for one frame"
+)]
+#[derive(Debug, Clone, PartialEq)]
+pub enum FlightComputerMessage {
+    /// A command frame.
+    Command(Downlink),
+    /// A configuration report.
+    ConfigReport(ConfigReport),
+}
+
+/// The identifier of a configuration: CRC-32C of its postcard encoding. Equal
+/// configurations have equal ids; a changed field changes the id except with probability
+/// about 2^-32.
+pub fn config_id(cfg: &ControllerConfig) -> u32 {
+    let mut buf = [0u8; MAX_BODY_LEN];
+    match postcard::to_slice(cfg, &mut buf) {
+        Ok(bytes) => CRC32C.checksum(bytes),
+        // Every configuration fits (tested); 0 would still be a stated, constant id.
+        Err(_) => 0,
+    }
 }
 
 /// Why a frame could not be encoded or decoded.
@@ -339,15 +494,20 @@ fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Result<usize, WireError> {
 }
 
 /// Encodes `msg` as a `kind` frame (COBS, ending in its zero) into `out`; returns its length.
-fn encode_frame<T: Serialize>(
+/// `N` is the scratch payload's size: [`STEP_PAYLOAD_LEN`] for the frames of every step (a
+/// smaller buffer to clear each frame), [`MAX_PAYLOAD_LEN`] for the others.
+fn encode_frame<T: Serialize, const N: usize>(
     kind: FrameKind,
     msg: &T,
     out: &mut [u8],
 ) -> Result<usize, WireError> {
-    let mut payload = [0u8; MAX_PAYLOAD_LEN];
+    let mut payload = [0u8; N];
     let (header, rest) = payload.split_at_mut(HEADER_LEN);
     header.copy_from_slice(&[PROTOCOL_VERSION, kind.byte()]);
-    let body_len = postcard::to_slice(msg, &mut rest[..MAX_BODY_LEN])
+    let body = rest
+        .get_mut(..N.saturating_sub(HEADER_LEN + CRC_LEN))
+        .ok_or(WireError::TooLarge)?;
+    let body_len = postcard::to_slice(msg, body)
         .map_err(|_| WireError::TooLarge)?
         .len();
     // The body is at most MAX_BODY_LEN bytes, so the ranges below are inside `payload`;
@@ -366,17 +526,55 @@ fn encode_frame<T: Serialize>(
     Ok(n + 1)
 }
 
+/// Encodes any serialisable `body` as a frame of `kind` into `out`; returns the frame, ending
+/// in its `0x00`. The typed encoders below are this with the body their kind carries; this
+/// one lets a test or a tool build a frame whose body does not match its kind.
+pub fn encode_message<'a, T: Serialize>(
+    kind: FrameKind,
+    body: &T,
+    out: &'a mut [u8],
+) -> Result<&'a [u8], WireError> {
+    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(kind, body, out)?;
+    Ok(&out[..n])
+}
+
+/// Encodes a configuration write into `out` (at least [`MAX_FRAME_LEN`] bytes suffice);
+/// returns the frame, ending in its `0x00`.
+pub fn encode_config_write<'a>(
+    cfg: &ControllerConfig,
+    out: &'a mut [u8],
+) -> Result<&'a [u8], WireError> {
+    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigWrite, cfg, out)?;
+    Ok(&out[..n])
+}
+
+/// Encodes a configuration read into `out`; returns the frame, ending in its `0x00`.
+pub fn encode_config_read(out: &mut [u8]) -> Result<&[u8], WireError> {
+    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigRead, &(), out)?;
+    Ok(&out[..n])
+}
+
+/// Encodes a configuration report into `out` (at least [`MAX_FRAME_LEN`] bytes suffice);
+/// returns the frame, ending in its `0x00`.
+pub fn encode_config_report<'a>(
+    r: &ConfigReport,
+    out: &'a mut [u8],
+) -> Result<&'a [u8], WireError> {
+    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigReport, r, out)?;
+    Ok(&out[..n])
+}
+
 /// Encodes a measurement frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
 /// the frame, ending in its `0x00`.
 pub fn encode_uplink<'a>(msg: &Uplink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
-    let n = encode_frame(FrameKind::Measurement, msg, out)?;
+    let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Measurement, msg, out)?;
     Ok(&out[..n])
 }
 
 /// Encodes a command frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns the
 /// frame, ending in its `0x00`.
 pub fn encode_downlink<'a>(msg: &Downlink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
-    let n = encode_frame(FrameKind::Command, msg, out)?;
+    let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Command, msg, out)?;
     Ok(&out[..n])
 }
 
@@ -412,6 +610,30 @@ impl Payload<'_> {
     /// The command message, or why not.
     pub fn downlink(&self) -> Result<Downlink, WireError> {
         Self::parse(self.body, self.kind, FrameKind::Command)
+    }
+
+    /// The message of a frame the flight computer takes (measurement, configuration write or
+    /// read), or why not; a frame of a kind the flight computer sends is
+    /// [`WireError::WrongKind`].
+    pub fn peer_message(&self) -> Result<PeerMessage, WireError> {
+        match self.kind {
+            FrameKind::Measurement => self.uplink().map(PeerMessage::Measurement),
+            FrameKind::ConfigWrite => Self::parse(self.body, self.kind, FrameKind::ConfigWrite)
+                .map(PeerMessage::ConfigWrite),
+            FrameKind::ConfigRead => Self::parse::<()>(self.body, self.kind, FrameKind::ConfigRead)
+                .map(|()| PeerMessage::ConfigRead),
+            FrameKind::Command | FrameKind::ConfigReport => Err(WireError::WrongKind),
+        }
+    }
+
+    /// The message of a frame the peer takes (command or configuration report), or why not.
+    pub fn flight_computer_message(&self) -> Result<FlightComputerMessage, WireError> {
+        match self.kind {
+            FrameKind::Command => self.downlink().map(FlightComputerMessage::Command),
+            FrameKind::ConfigReport => Self::parse(self.body, self.kind, FrameKind::ConfigReport)
+                .map(FlightComputerMessage::ConfigReport),
+            _ => Err(WireError::WrongKind),
+        }
     }
 }
 
@@ -555,6 +777,16 @@ fn decode_one<T>(
     Err(WireError::TooShort)
 }
 
+/// Decodes one frame the flight computer takes (with or without its terminating zero).
+pub fn decode_peer_message(frame: &[u8]) -> Result<PeerMessage, WireError> {
+    decode_one(frame, |p| p.peer_message())
+}
+
+/// Decodes one frame the peer takes (with or without its terminating zero).
+pub fn decode_flight_computer_message(frame: &[u8]) -> Result<FlightComputerMessage, WireError> {
+    decode_one(frame, |p| p.flight_computer_message())
+}
+
 /// Decodes one measurement frame (with or without its terminating zero).
 pub fn decode_uplink(frame: &[u8]) -> Result<Uplink, WireError> {
     decode_one(frame, |p| p.uplink())
@@ -646,6 +878,8 @@ mod tests {
             deadline_missed: m,
             rx_errors: m,
             tx_errors: m,
+            config_applied: m,
+            config_refused: m,
         };
         let output = ControllerOutput {
             command: ActuatorCommand::from_array([-1.0; 4]),
@@ -689,6 +923,24 @@ mod tests {
                 decode: m,
                 encode_prev: m,
             },
+            config_id: m,
+        }
+    }
+
+    /// A configuration report at its longest: the longest field path, every counter at its
+    /// largest, the default configuration (its floats are fixed-size; its integers are
+    /// small and the tests below measure the margin).
+    fn largest_config_report() -> ConfigReport {
+        let mut field = FieldPath::new();
+        while field.push('x').is_ok() {}
+        ConfigReport {
+            seq: u32::MAX,
+            status: ConfigStatus::Rejected {
+                field,
+                problem: ConfigProblem::Inconsistent,
+            },
+            config_id: u32::MAX,
+            config: ControllerConfig::default(),
         }
     }
 
@@ -752,8 +1004,13 @@ mod tests {
     fn largest_downlink_fits_and_round_trips() {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let m = largest_downlink();
-        let body = postcard::to_slice(&m, &mut [0u8; 512]).unwrap().len();
+        let body = postcard::to_slice(&m, &mut [0u8; 1024]).unwrap().len();
         assert!(body <= MAX_BODY_LEN, "body {body} > {MAX_BODY_LEN}");
+        let payload = HEADER_LEN + body + CRC_LEN;
+        assert!(
+            payload + 8 <= STEP_PAYLOAD_LEN,
+            "payload {payload}: STEP_PAYLOAD_LEN's margin"
+        );
         let frame = encode_downlink(&m, &mut buf).unwrap();
         assert!(frame.len() <= MAX_FRAME_LEN);
         assert_eq!(decode_downlink(frame).unwrap(), m);
@@ -771,8 +1028,117 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, frame.len()),
-            (82, 90, 137, 317),
+            (82, 90, 140, 332),
             "update the module doc"
+        );
+    }
+
+    #[test]
+    fn configuration_frames_fit_and_round_trip() {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let r = largest_config_report();
+        let frame = encode_config_report(&r, &mut buf).unwrap();
+        assert!(frame.len() <= MAX_FRAME_LEN);
+        let got = decode_flight_computer_message(frame).unwrap();
+        assert_eq!(got, FlightComputerMessage::ConfigReport(r));
+        let report_len = frame.len();
+        // The write: the configuration bit for bit, NaN-free but with its extreme integers.
+        let mut cfg = ControllerConfig::paper();
+        cfg.nav_latency_steps = u8::MAX;
+        cfg.ibvs.k1_mps = -0.0;
+        let frame = encode_config_write(&cfg, &mut buf).unwrap();
+        let write_len = frame.len();
+        match decode_peer_message(frame).unwrap() {
+            PeerMessage::ConfigWrite(c) => {
+                assert_eq!(c, cfg);
+                assert!(c.ibvs.k1_mps.is_sign_negative(), "bits, not only value");
+            }
+            other => panic!("{other:?}"),
+        }
+        let frame = encode_config_read(&mut buf).unwrap();
+        assert_eq!(decode_peer_message(frame).unwrap(), PeerMessage::ConfigRead);
+        // The documented size of the default configuration, and the report's margin.
+        let body = postcard::to_slice(&ControllerConfig::default(), &mut [0u8; 1024])
+            .unwrap()
+            .len();
+        assert_eq!(body, 403, "update the module doc");
+        assert!(
+            write_len < report_len && report_len + 16 <= MAX_FRAME_LEN,
+            "{report_len}"
+        );
+    }
+
+    #[test]
+    fn each_side_takes_only_its_own_frames() {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let up = encode_uplink(&uplink(), &mut buf).unwrap().to_vec();
+        assert_eq!(
+            decode_flight_computer_message(&up),
+            Err(WireError::WrongKind)
+        );
+        let down = encode_downlink(&Downlink::default(), &mut buf)
+            .unwrap()
+            .to_vec();
+        assert_eq!(decode_peer_message(&down), Err(WireError::WrongKind));
+        let report = encode_config_report(&largest_config_report(), &mut buf)
+            .unwrap()
+            .to_vec();
+        assert_eq!(decode_peer_message(&report), Err(WireError::WrongKind));
+        // A read with a body, and a write whose body is not a configuration: malformed.
+        let read_with_body = {
+            let n =
+                encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigRead, &7u8, &mut buf).unwrap();
+            buf[..n].to_vec()
+        };
+        assert_eq!(
+            decode_peer_message(&read_with_body),
+            Err(WireError::Malformed)
+        );
+        let short_write = {
+            let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigWrite, &[1u8; 3], &mut buf)
+                .unwrap();
+            buf[..n].to_vec()
+        };
+        assert_eq!(decode_peer_message(&short_write), Err(WireError::Malformed));
+    }
+
+    #[test]
+    fn the_configuration_id_follows_every_field() {
+        let base = ControllerConfig::default();
+        assert_eq!(config_id(&base), config_id(&base.clone()));
+        assert_ne!(config_id(&base), config_id(&ControllerConfig::paper()));
+        let mut c = base;
+        c.refuelling.gate_max_horizon_s += 1e-6;
+        assert_ne!(config_id(&base), config_id(&c));
+        let mut c = base;
+        c.nav_latency_steps ^= 1;
+        assert_ne!(config_id(&base), config_id(&c));
+    }
+
+    #[test]
+    fn a_rejection_carries_the_path_the_validation_named() {
+        let e = ConfigError {
+            field: "modes.drogue_rate_filter (<= 1)",
+            problem: ConfigProblem::Inconsistent,
+        };
+        match ConfigStatus::rejected(e) {
+            ConfigStatus::Rejected { field, problem } => {
+                assert_eq!(field.as_str(), e.field);
+                assert_eq!(problem, e.problem);
+            }
+            other => panic!("{other:?}"),
+        }
+        let long = "a.very.long.path.that.does.not.fit.in.the.ninety.six.bytes.of.the.wire.field.path.string.at.all.not.at.all";
+        match ConfigStatus::rejected(ConfigError {
+            field: long,
+            problem: ConfigProblem::NotFinite,
+        }) {
+            ConfigStatus::Rejected { field, .. } => assert_eq!(field.as_str(), &long[..96]),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            ConfigStatus::refused(ReconfigureError::NotStandby(Mode::Approach)),
+            ConfigStatus::NotStandby(Mode::Approach)
         );
     }
 

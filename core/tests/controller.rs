@@ -26,7 +26,7 @@ use ibvs_core::wire::{
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
-    Mode, ModeRequest, OuterLaw,
+    Mode, ModeRequest, OuterLaw, ReconfigureError,
 };
 
 /// The trim command `[elevator, throttle, aileron, rudder]`.
@@ -972,6 +972,56 @@ fn rejection(spoil: impl FnOnce(&mut ControllerConfig)) -> Option<ConfigError> {
     let mut cfg = config();
     spoil(&mut cfg);
     Controller::new(cfg).err()
+}
+
+#[test]
+fn reconfigure_applies_in_standby_only_keeps_the_counters_and_is_atomic() {
+    let mut rig = Rig::new(config());
+    // Count something first: an engage refused on an untracked frame.
+    rig.step_with(MID, |i| {
+        i.request = ModeRequest::Engage;
+        i.measurement.tracked = false;
+    });
+    let counted = *rig.ctl.counters();
+    assert_eq!(counted.engage_refused, 1);
+
+    // Invalid: refused, named, and the controller unchanged (config and counters).
+    let mut bad = config();
+    bad.ibvs.k3_per_s = 0.0;
+    assert_eq!(
+        rig.ctl.reconfigure(bad),
+        Err(ReconfigureError::Invalid(ConfigError {
+            field: "ibvs.k3_per_s",
+            problem: ConfigProblem::NotPositive
+        }))
+    );
+    assert_eq!(*rig.ctl.config(), config());
+
+    // Valid in standby: applied, counters carried over, and it flies the new gains.
+    let mut next = config();
+    next.ibvs.k1_mps *= 2.0;
+    assert_eq!(rig.ctl.reconfigure(next), Ok(()));
+    assert_eq!(*rig.ctl.config(), next);
+    assert_eq!(*rig.ctl.counters(), counted);
+    let mut twin = Rig {
+        ctl: Controller::new(next).unwrap(),
+        ..rig.clone()
+    };
+    let engage = |i: &mut ControllerInput| i.request = ModeRequest::Engage;
+    let out = rig.step_with(MID, engage);
+    assert_eq!(out.mode, Mode::Approach);
+    let twin_out = twin.step_with(MID, engage);
+    assert_eq!(out.command, twin_out.command, "flies as if built with it");
+    assert_eq!(out.v_des, twin_out.v_des);
+
+    // Engaged: refused with the mode, nothing changed.
+    let mut untouched = rig.clone();
+    assert_eq!(
+        rig.ctl.reconfigure(config()),
+        Err(ReconfigureError::NotStandby(Mode::Approach))
+    );
+    assert_eq!(*rig.ctl.config(), next);
+    assert_eq!(rig.step(MID), untouched.step(MID));
 }
 
 #[test]
