@@ -30,6 +30,11 @@
 //!   an operator request (engage, abort, reset) of the skipped frame is carried over unless
 //!   the later frame has its own, so no request is lost.
 //!
+//! Configuration frames (both schedules): a configuration write is applied through
+//! [`Controller::reconfigure`] (standby only, validated, atomic) between two steps, and every
+//! write or read is answered at once with a configuration report ([`ConfigReport`]: what was
+//! done, the configuration flown and its id); the id is in every command frame after it.
+//!
 //! Every rejected byte sequence is counted in [`LinkCounters`] (by the core's
 //! [`LinkCounters::count`]) and so reported in the next command frame.
 //!
@@ -43,7 +48,8 @@ use ibvs_core::config::trim_command;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    Cost, CostUnit, Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink,
+    ConfigReport, ConfigStatus, Cost, CostUnit, Downlink, FrameDecoder, FrameKind, LinkCounters,
+    LinkStatus, MAX_FRAME_LEN, PeerMessage, Uplink, WireError, config_id, encode_config_report,
     encode_downlink,
 };
 use ibvs_core::{
@@ -110,6 +116,12 @@ pub enum Event {
     LinkStale,
     /// Free-running: a new frame arrived after the link was stale.
     LinkRecovered,
+    /// A configuration write was applied: the controller flies the configuration with this
+    /// [`config_id`] from the next step.
+    Configured {
+        /// Its id.
+        id: u32,
+    },
     /// A control step used more stack than any before it (boards that measure it).
     ControlStack {
         /// Bytes below the caller's stack pointer, the step's frames and anything they call.
@@ -214,6 +226,8 @@ pub struct App {
     control_stack_max: u32,
     /// An event to log after the current one (a new control-stack maximum).
     pending: Option<Event>,
+    /// [`config_id`] of the controller's configuration.
+    config_id: u32,
     buf: [u8; MAX_FRAME_LEN],
 }
 
@@ -227,8 +241,10 @@ impl App {
         if previous_panic {
             base_status |= LinkStatus::PREVIOUS_PANIC;
         }
+        let cfg = ControllerConfig::default();
         Ok(Self {
-            controller: Controller::new(ControllerConfig::default())?,
+            controller: Controller::new(cfg)?,
+            config_id: config_id(&cfg),
             schedule,
             decoder: FrameDecoder::new(),
             link: LinkCounters::default(),
@@ -290,6 +306,7 @@ impl App {
                 encode_prev: self.encode_prev,
                 ..cost
             },
+            config_id: self.config_id,
         }
     }
 
@@ -350,18 +367,79 @@ impl App {
     /// [`App::frame_bytes`]) when the byte completed a frame that is answered (lockstep).
     pub fn on_byte<C: CostCounter>(&mut self, byte: u8) -> (Option<usize>, Option<Event>) {
         let t0 = C::now();
-        let result = self.decoder.feed(byte).map(|r| r.and_then(|p| p.uplink()));
+        let result = self
+            .decoder
+            .feed(byte)
+            .map(|r| r.map(|p| (p.kind, p.peer_message())));
         self.decode_acc = self.decode_acc.saturating_add(C::now().wrapping_sub(t0));
         let Some(result) = result else {
             return (None, None);
         };
         let decode = core::mem::take(&mut self.decode_acc);
         match result {
+            Ok((_, Ok(PeerMessage::Measurement(up)))) => self.accept::<C>(up, decode),
+            Ok((_, Ok(PeerMessage::ConfigWrite(cfg)))) => self.configure(Ok(cfg)),
+            Ok((_, Ok(PeerMessage::ConfigRead))) => self.report(ConfigStatus::Active),
+            Ok((FrameKind::ConfigWrite, Err(e))) => self.configure(Err(e)),
+            Ok((_, Err(e))) | Err(e) => {
+                self.link.count(e);
+                (None, None)
+            }
+        }
+    }
+
+    /// A configuration write (or one whose body did not deserialise): applied through
+    /// [`Controller::reconfigure`] (standby only, validated, atomic: the next step flies it),
+    /// counted, and answered with a report either way.
+    fn configure(
+        &mut self,
+        cfg: Result<ControllerConfig, WireError>,
+    ) -> (Option<usize>, Option<Event>) {
+        let status = match cfg {
+            Err(e) => {
+                self.link.count(e);
+                ConfigStatus::Malformed
+            }
+            Ok(cfg) => match self.controller.reconfigure(cfg) {
+                Ok(()) => {
+                    self.config_id = config_id(&cfg);
+                    ConfigStatus::Applied
+                }
+                Err(e) => ConfigStatus::refused(e),
+            },
+        };
+        let applied = status == ConfigStatus::Applied;
+        let counter = if applied {
+            &mut self.link.config_applied
+        } else {
+            &mut self.link.config_refused
+        };
+        *counter = counter.saturating_add(1);
+        let (len, _) = self.report(status);
+        (
+            len,
+            applied.then_some(Event::Configured { id: self.config_id }),
+        )
+    }
+
+    /// Answers a configuration frame with a report of `status` and the configuration flown.
+    fn report(&mut self, status: ConfigStatus) -> (Option<usize>, Option<Event>) {
+        let r = ConfigReport {
+            seq: self.tx_seq,
+            status,
+            config_id: self.config_id,
+            config: *self.controller.config(),
+        };
+        match encode_config_report(&r, &mut self.buf) {
+            Ok(frame) => {
+                let n = frame.len();
+                self.tx_seq = self.tx_seq.wrapping_add(1);
+                (Some(n), None)
+            }
             Err(e) => {
                 self.link.count(e);
                 (None, None)
             }
-            Ok(up) => self.accept::<C>(up, decode),
         }
     }
 
@@ -538,8 +616,12 @@ mod tests {
     use std::collections::VecDeque;
     use std::vec::Vec;
 
+    use ibvs_core::config::ConfigProblem;
     use ibvs_core::measurement::CameraMeasurement;
-    use ibvs_core::wire::{FrameDecoder, MAX_FRAME_LEN, encode_uplink};
+    use ibvs_core::wire::{
+        FlightComputerMessage, FrameDecoder, MAX_FRAME_LEN, encode_config_read,
+        encode_config_write, encode_message, encode_uplink,
+    };
 
     use super::*;
     use crate::one_step::engage_input;
@@ -672,6 +754,38 @@ mod tests {
             self.tx.clear();
             out
         }
+
+        /// Every frame sent so far, of either kind (and clears the output).
+        fn messages(&mut self) -> Vec<FlightComputerMessage> {
+            let mut d = FrameDecoder::new();
+            let out = self
+                .tx
+                .iter()
+                .filter_map(|&b| {
+                    d.feed(b)
+                        .map(|r| r.and_then(|p| p.flight_computer_message()))
+                })
+                .map(|r| r.expect("valid frame"))
+                .collect();
+            self.tx.clear();
+            out
+        }
+
+        /// Sends a configuration write and returns the one report it must be answered by.
+        fn configure(&mut self, app: &mut App, cfg: &ControllerConfig) -> ConfigReport {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            self.rx.extend(
+                encode_config_write(cfg, &mut buf)
+                    .expect("fits")
+                    .iter()
+                    .copied(),
+            );
+            assert_eq!(app.poll(self), 1, "one answer");
+            match self.messages().as_slice() {
+                [FlightComputerMessage::ConfigReport(r)] => r.clone(),
+                other => panic!("not one report: {other:?}"),
+            }
+        }
     }
 
     /// Frame `cam_seq` of a drogue closing slowly (the content changes every frame, as a
@@ -744,7 +858,9 @@ mod tests {
         board.send(1, input(1, ModeRequest::Engage));
         // Garbage with zeros (two corrupt frames), an oversize run, a frame with a bad CRC.
         board.rx.extend([0x11, 0x22, 0x00, 0x05, 0x01, 0x00]);
-        board.rx.extend(core::iter::repeat_n(0x42, 600));
+        board
+            .rx
+            .extend(core::iter::repeat_n(0x42, MAX_FRAME_LEN + 40));
         board.rx.push_back(0);
         let mut buf = [0u8; MAX_FRAME_LEN];
         let mut bad = encode_uplink(
@@ -769,6 +885,106 @@ mod tests {
             (3, 1, 1, 2)
         );
         assert_eq!((l.frames_ok, f[1].counters.frames_dropped), (2, 1));
+    }
+
+    #[test]
+    fn a_configuration_write_in_standby_is_applied_reported_and_flown() {
+        let (mut app, mut board) = lockstep();
+        let boot = board.frames();
+        assert_eq!(boot[0].config_id, config_id(&ControllerConfig::default()));
+        let cfg = ControllerConfig::paper();
+        let r = board.configure(&mut app, &cfg);
+        assert_eq!(r.status, ConfigStatus::Applied);
+        assert_eq!((r.config, r.config_id), (cfg, config_id(&cfg)));
+        assert_eq!(
+            board.events,
+            [Event::Configured {
+                id: config_id(&cfg)
+            }]
+        );
+        // A read answers with the same, and changes nothing.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        board
+            .rx
+            .extend(encode_config_read(&mut buf).expect("fits").iter().copied());
+        assert_eq!(app.poll(&mut board), 1);
+        match board.messages().as_slice() {
+            [FlightComputerMessage::ConfigReport(read)] => {
+                assert_eq!(read.status, ConfigStatus::Active);
+                assert_eq!((read.config, read.config_id), (cfg, r.config_id));
+                assert_eq!(read.seq, r.seq + 1, "one frame counter for every frame");
+            }
+            other => panic!("{other:?}"),
+        }
+        // The steps fly it exactly as a controller built with it, and say so.
+        let mut twin = Controller::new(cfg).expect("valid");
+        for seq in 1..=5 {
+            let i = input(seq, ModeRequest::Engage);
+            board.send(seq, i);
+            app.poll(&mut board);
+            let f = board.frames();
+            let want = twin.step(&i);
+            twin.follow_schedule();
+            assert_eq!(f[0].output, want);
+            assert_eq!(f[0].config_id, config_id(&cfg));
+            assert_eq!(f[0].link.config_applied, 1);
+        }
+    }
+
+    #[test]
+    fn a_configuration_write_is_refused_named_and_counted_unless_valid_in_standby() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        let default = ControllerConfig::default();
+        // Invalid: the field and the problem, and the default still flown.
+        let mut bad = default;
+        bad.ibvs.k3_per_s = -1.0;
+        let r = board.configure(&mut app, &bad);
+        match &r.status {
+            ConfigStatus::Rejected { field, problem } => {
+                assert_eq!(
+                    (field.as_str(), *problem),
+                    ("ibvs.k3_per_s", ConfigProblem::NotPositive)
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!((r.config, r.config_id), (default, config_id(&default)));
+        // Malformed: a write whose body is a measurement, its CRC good.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_message(FrameKind::ConfigWrite, &Uplink::default(), &mut buf)
+            .expect("fits")
+            .to_vec();
+        board.rx.extend(frame);
+        assert_eq!(app.poll(&mut board), 1);
+        match board.messages().as_slice() {
+            [FlightComputerMessage::ConfigReport(r)] => {
+                assert_eq!(r.status, ConfigStatus::Malformed)
+            }
+            other => panic!("{other:?}"),
+        }
+        // Engaged: refused with the mode, whatever the configuration.
+        board.send(1, input(1, ModeRequest::Engage));
+        app.poll(&mut board);
+        let engaged = board.frames()[0].output.mode;
+        assert_eq!(
+            engaged,
+            Mode::PreContact,
+            "the default procedure's first mode"
+        );
+        let r = board.configure(&mut app, &ControllerConfig::paper());
+        assert_eq!(r.status, ConfigStatus::NotStandby(engaged));
+        assert_eq!(r.config, default);
+        board.send(2, input(2, ModeRequest::None));
+        app.poll(&mut board);
+        let l = board.frames()[0].link;
+        assert_eq!((l.config_applied, l.config_refused, l.malformed), (0, 3, 1));
+        assert!(
+            board
+                .events
+                .iter()
+                .all(|e| !matches!(e, Event::Configured { .. }))
+        );
     }
 
     #[test]

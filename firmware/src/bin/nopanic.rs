@@ -5,7 +5,9 @@
 //! [`Controller::follow_schedule`](ibvs_core::Controller::follow_schedule) (all through `black_box`, so the optimiser must
 //! keep every path), then the link code on arbitrary bytes: [`FrameDecoder::feed`](ibvs_core::wire::FrameDecoder::feed), the
 //! measurement frame's deserialisation and [`encode_downlink`](ibvs_core::wire::encode_downlink). Its panic handler calls a
-//! function that does not exist. The release build (LTO, dead code removed) therefore links
+//! function that does not exist. It also runs the configuration path: a configuration frame's
+//! deserialisation, [`Controller::reconfigure`](ibvs_core::Controller::reconfigure), the
+//! configuration's id and the report's encoding. The release build (LTO, dead code removed) therefore links
 //! only if no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow
 //! check or an `unreachable!` that the optimiser could not prove dead would keep the panic
 //! handler, and with it the undefined symbol
@@ -23,7 +25,10 @@ mod target {
     use core::hint::black_box;
 
     use cortex_m_rt::entry;
-    use ibvs_core::wire::{Downlink, FrameDecoder, MAX_FRAME_LEN, encode_downlink};
+    use ibvs_core::wire::{
+        ConfigReport, ConfigStatus, Downlink, FrameDecoder, MAX_FRAME_LEN, PeerMessage, config_id,
+        encode_config_report, encode_downlink,
+    };
     use ibvs_core::{Controller, ControllerConfig, ControllerInput};
     // The device's interrupt vectors (cortex-m-rt's link script needs them).
     use stm32f4xx_hal as _;
@@ -42,11 +47,34 @@ mod target {
                     black_box(black_box(&mut controller).follow_schedule());
                 }
             }
-            // The link: any byte, any command frame.
+            // The link: any byte, any frame the flight computer takes, any command frame.
+            let mut written = None;
             if let Some(frame) = decoder.feed(black_box(0u8)) {
-                black_box(frame.and_then(|p| p.uplink()).is_ok());
+                match frame.and_then(|p| p.peer_message()) {
+                    Ok(PeerMessage::ConfigWrite(cfg)) => written = Some(cfg),
+                    other => {
+                        black_box(other.is_ok());
+                    }
+                }
             }
             black_box(encode_downlink(&black_box(Downlink::default()), &mut buf).is_ok());
+            // The configuration path: any configuration written, applied or refused, reported.
+            if let (Some(cfg), Ok(mut controller)) = (
+                written,
+                Controller::new(black_box(ControllerConfig::default())),
+            ) {
+                let status = match controller.reconfigure(cfg) {
+                    Ok(()) => ConfigStatus::Applied,
+                    Err(e) => ConfigStatus::refused(e),
+                };
+                let report = ConfigReport {
+                    seq: 0,
+                    status,
+                    config_id: config_id(controller.config()),
+                    config: *controller.config(),
+                };
+                black_box(encode_config_report(&black_box(report), &mut buf).is_ok());
+            }
         }
     }
 

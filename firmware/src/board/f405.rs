@@ -149,6 +149,7 @@ pub fn log(event: Event) {
         ),
         Event::LinkStale => defmt::warn!("link stale: navigation treated as invalid"),
         Event::LinkRecovered => defmt::info!("link recovered"),
+        Event::Configured { id } => defmt::info!("configuration {=u32:#010x} applied", id),
         Event::ControlStack { bytes, step } => defmt::info!(
             "step {}: control-path stack high-water mark {} B",
             step,

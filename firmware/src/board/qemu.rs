@@ -201,6 +201,7 @@ pub fn log(event: Event) {
         ),
         Event::LinkStale => hprintln!("firmware: link stale: navigation treated as invalid"),
         Event::LinkRecovered => hprintln!("firmware: link recovered"),
+        Event::Configured { id } => hprintln!("firmware: configuration {:#010x} applied", id),
         Event::ControlStack { bytes, step } => hprintln!(
             "firmware: step {}: control-path stack high-water mark {} B",
             step,
