@@ -10,7 +10,7 @@
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
 //! host-sim paper     [--out DIR] [--seeds N]
-//! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M | --shards M] [--out DIR]
+//! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M | --shards M] [--pil [--firmware ELF]] [--out DIR]
 //! host-sim montecarlo --scenario NAME|PATH --show-run I
 //! host-sim montecarlo merge DIR... [--out DIR]
 //! ```
@@ -23,7 +23,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use host_sim::animate::{self, AnimationOptions};
-use host_sim::montecarlo::{self, CampaignMeta, Shard};
+use host_sim::montecarlo::{self, CampaignComputer, CampaignMeta, Shard};
 use host_sim::receiver::F16;
 use host_sim::record::{self, Recording};
 use host_sim::scenario::{Law, PRESETS, ScenarioFile};
@@ -32,7 +32,7 @@ use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
 use host_sim::{flight_log, output, paper, pil, plot};
-use ibvs_core::{Controller, ControllerConfig};
+use ibvs_core::Controller;
 
 #[derive(Parser)]
 #[command(
@@ -107,7 +107,7 @@ enum Command {
         /// the serial link (adds `step_instructions` and link counts to `--json`).
         #[arg(long)]
         pil: bool,
-        /// Firmware ELF for `--pil` (default: build it, or `IBVS_FIRMWARE_ELF`).
+        /// Firmware ELF for `--pil` (default: `IBVS_FIRMWARE_ELF`, or the default build path).
         #[arg(long, value_name = "PATH", requires = "pil")]
         firmware: Option<PathBuf>,
         /// Also write dock.gif: chase views and the camera's image, animated (docs/logs.md).
@@ -167,6 +167,14 @@ struct MonteCarloArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
     out: PathBuf,
+    /// Processor in the loop: fly every run with the firmware inside QEMU's emulated
+    /// STM32F405 (one emulator per run, at most --jobs at once); the records equal the
+    /// in-process campaign's.
+    #[arg(long)]
+    pil: bool,
+    /// Firmware ELF for `--pil` (default: `IBVS_FIRMWARE_ELF`, or the default build path).
+    #[arg(long, value_name = "PATH", requires = "pil")]
+    firmware: Option<PathBuf>,
     /// Print the scenario file of run I (dispersion applied) instead, to fly it with `dock`
     /// (with `--animate` and `--log` to watch or log it).
     #[arg(long, value_name = "I", conflicts_with_all = ["runs", "jobs", "shard", "shards"])]
@@ -316,10 +324,19 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
     };
     let indices = montecarlo::indices(runs, shard);
     let started = std::time::Instant::now();
-    let lines = montecarlo::run_campaign(&f, &indices, args.jobs)?;
+    let computer = if args.pil {
+        let elf = match args.firmware {
+            Some(p) => p,
+            None => pil::firmware_elf()?,
+        };
+        CampaignComputer::Pil(elf)
+    } else {
+        CampaignComputer::InProcess
+    };
+    let lines = montecarlo::run_campaign_on(&f, &indices, args.jobs, &computer)?;
     let wall_s = started.elapsed().as_secs_f64();
-    let summary =
-        montecarlo::write_campaign(&args.out, &CampaignMeta::new(&f, runs, shard), &lines)?;
+    let meta = CampaignMeta::new(&f, runs, shard).on(&computer);
+    let summary = montecarlo::write_campaign(&args.out, &meta, &lines)?;
     println!("{}", montecarlo::one_line(&summary));
     eprintln!(
         "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png, success_vs_condition.png}}",
@@ -487,21 +504,13 @@ fn dock(
         }
         Computer::InProcess => (sim::run(&scenario, &mut Controller::new(cfg)?)?, None),
         Computer::Pil(elf) => {
-            // The firmware flies its built-in configuration; a scenario that changes the
-            // controller (law, gains, believed camera position) cannot be flown on it yet.
-            if cfg != ControllerConfig::default() {
-                return Err(format!(
-                    "--pil: scenario {:?} changes the controller configuration (law, gains or camera \
-                     belief), but the firmware flies its built-in default",
-                    f.name
-                )
-                .into());
-            }
             let elf = match elf {
                 Some(p) => p,
                 None => pil::firmware_elf()?,
             };
             let mut fc = pil::PilFlightComputer::spawn(&elf)?;
+            // The scenario's controller configuration, over the link, before the first step.
+            fc.configure(&cfg)?;
             let run = if record.any() {
                 let (run, rec) = record::run_pil(&scenario, &mut fc, &[])?;
                 recording = Some(rec);

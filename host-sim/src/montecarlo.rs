@@ -47,6 +47,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use ibvs_core::Controller;
+
+use crate::pil::PilFlightComputer;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::prelude::*;
 use rayon::prelude::*;
@@ -487,13 +489,60 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
     }
 }
 
-/// Flies run `index` of a campaign over `base`.
+/// What flies a campaign's runs.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum CampaignComputer {
+    /// The core's controller in this process.
+    #[default]
+    InProcess,
+    /// The firmware at this ELF in QEMU, one emulator per run (booted for the run, sent the
+    /// run's configuration over the link, stopped after it): each run starts from power-on,
+    /// as an in-process run starts from `Controller::new`, so the records are the same.
+    Pil(PathBuf),
+}
+
+impl CampaignComputer {
+    /// Its name in `campaign.json`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::InProcess => "in-process",
+            Self::Pil(_) => "pil",
+        }
+    }
+}
+
+/// Flies `f` on `computer`.
+fn fly(f: &ScenarioFile, computer: &CampaignComputer) -> Result<Run, String> {
+    let cfg = f.controller_config();
+    match computer {
+        CampaignComputer::InProcess => Controller::new(cfg)
+            .map_err(|e| e.to_string())
+            .and_then(|mut c| sim::run(&f.scenario(), &mut c).map_err(|e| e.to_string())),
+        CampaignComputer::Pil(elf) => {
+            let mut fc = PilFlightComputer::spawn(elf).map_err(|e| e.to_string())?;
+            fc.configure(&cfg).map_err(|e| e.to_string())?;
+            let run = sim::run(&f.scenario(), &mut fc).map_err(|e| e.to_string());
+            let failure = fc.last_error().map(|e| format!("serial link: {e}"));
+            fc.shutdown();
+            match failure {
+                Some(e) => Err(e),
+                None => run,
+            }
+        }
+    }
+}
+
+/// Flies run `index` of a campaign over `base`, in process.
 pub fn run_one(base: &ScenarioFile, index: u64) -> RunRecord {
+    run_one_on(base, index, &CampaignComputer::InProcess)
+}
+
+/// Flies run `index` of a campaign over `base` on `computer`. A run that could not be flown
+/// (an invalid configuration, a failed serial link) is a record with outcome `error` and the
+/// reason, never a missing line.
+pub fn run_one_on(base: &ScenarioFile, index: u64, computer: &CampaignComputer) -> RunRecord {
     let f = base.dispersed(index);
-    let result = Controller::new(f.controller_config())
-        .map_err(|e| e.to_string())
-        .and_then(|mut c| sim::run(&f.scenario(), &mut c).map_err(|e| e.to_string()));
-    match result {
+    match fly(&f, computer) {
         Ok(run) => classify(index, &f, &run),
         Err(e) => RunRecord {
             index,
@@ -529,10 +578,17 @@ pub struct CampaignMeta {
     pub shard: Option<String>,
     /// The simulator's version (shards of different versions are not merged).
     pub host_sim_version: String,
+    /// What flew the runs: `in-process` or `pil` ([`CampaignComputer::name`]).
+    #[serde(default = "in_process")]
+    pub flight_computer: String,
+}
+
+fn in_process() -> String {
+    CampaignComputer::InProcess.name().into()
 }
 
 impl CampaignMeta {
-    /// The meta of a campaign of `runs` runs of `f` (`shard` of it).
+    /// The meta of a campaign of `runs` runs of `f` (`shard` of it), flown in process.
     pub fn new(f: &ScenarioFile, runs: u64, shard: Option<Shard>) -> Self {
         Self {
             scenario: f.name.clone(),
@@ -540,6 +596,15 @@ impl CampaignMeta {
             runs,
             shard: shard.map(|s| s.to_string()),
             host_sim_version: env!("CARGO_PKG_VERSION").into(),
+            flight_computer: in_process(),
+        }
+    }
+
+    /// The same, flown on `computer`.
+    pub fn on(self, computer: &CampaignComputer) -> Self {
+        Self {
+            flight_computer: computer.name().into(),
+            ..self
         }
     }
 }
@@ -550,6 +615,17 @@ pub fn run_campaign(
     base: &ScenarioFile,
     indices: &[u64],
     jobs: Option<usize>,
+) -> Result<Vec<String>, McError> {
+    run_campaign_on(base, indices, jobs, &CampaignComputer::InProcess)
+}
+
+/// [`run_campaign`] on `computer` (with [`CampaignComputer::Pil`], at most `jobs` emulators at
+/// once).
+pub fn run_campaign_on(
+    base: &ScenarioFile,
+    indices: &[u64],
+    jobs: Option<usize>,
+    computer: &CampaignComputer,
 ) -> Result<Vec<String>, McError> {
     base.validate()?;
     let bar = if std::io::stderr().is_terminal() {
@@ -569,9 +645,11 @@ pub fn run_campaign(
             .par_iter()
             .map(|&i| {
                 let line =
-                    serde_json::to_string(&run_one(base, i)).map_err(|source| McError::Json {
-                        path: format!("run {i}"),
-                        source,
+                    serde_json::to_string(&run_one_on(base, i, computer)).map_err(|source| {
+                        McError::Json {
+                            path: format!("run {i}"),
+                            source,
+                        }
                     });
                 bar.inc(1);
                 line

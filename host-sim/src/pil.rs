@@ -48,11 +48,13 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::thread;
 use std::time::{Duration, Instant};
 
+use ibvs_core::ControllerConfig;
 use ibvs_core::controller::{ControllerInput, ControllerOutput, Counters};
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::wire::{
-    CostUnit, Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink, WireError,
-    encode_uplink,
+    ConfigReport, ConfigStatus, CostUnit, Downlink, FlightComputerMessage, FrameDecoder,
+    LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink, WireError, config_id, encode_config_read,
+    encode_config_write, encode_uplink,
 };
 use serde::Serialize;
 
@@ -124,6 +126,22 @@ pub enum PilError {
     /// A measurement frame could not be encoded.
     #[error("encoding a measurement frame: {0}")]
     Encode(WireError),
+    /// No configuration report answered a configuration frame in time.
+    #[error("no configuration report from the firmware within {0:?}")]
+    NoConfigReport(Duration),
+    /// The firmware did not apply the configuration sent (its answer).
+    #[error("the firmware refused the configuration: {0:?}")]
+    ConfigRefused(ConfigStatus),
+    /// The firmware reported applying a configuration other than the one sent.
+    #[error(
+        "the firmware applied a configuration other than the one sent (id {got:#010x}, sent {sent:#010x})"
+    )]
+    ConfigMismatch {
+        /// The id it reported.
+        got: u32,
+        /// The id of the configuration sent.
+        sent: u32,
+    },
     /// Socket or file I/O.
     #[error("PIL link I/O: {0}")]
     Io(#[from] io::Error),
@@ -616,8 +634,68 @@ impl PilLink {
     }
 
     /// The next command frame within `timeout` (`None` when none came). Rejected frames are
-    /// counted in [`HostLinkCounters::rx`] and skipped.
+    /// counted in [`HostLinkCounters::rx`] and skipped; a configuration report (none is
+    /// expected here: the firmware sends one only in answer to a configuration frame) is
+    /// counted in [`HostLinkCounters::unexpected_frames`] and skipped.
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Downlink>, PilError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv_message(left)? {
+                None => return Ok(None),
+                Some(FlightComputerMessage::Command(d)) => return Ok(Some(d)),
+                Some(FlightComputerMessage::ConfigReport(_)) => self.host.unexpected_frames += 1,
+            }
+        }
+    }
+
+    /// The next configuration report within `timeout` (`None` when none came). A command
+    /// frame meanwhile is counted in [`HostLinkCounters::unexpected_frames`] and skipped.
+    pub fn recv_report(&mut self, timeout: Duration) -> Result<Option<ConfigReport>, PilError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv_message(left)? {
+                None => return Ok(None),
+                Some(FlightComputerMessage::ConfigReport(r)) => return Ok(Some(r)),
+                Some(FlightComputerMessage::Command(d))
+                    if d.link_status.contains(LinkStatus::PANIC) =>
+                {
+                    return Err(self.panicked(&d));
+                }
+                Some(FlightComputerMessage::Command(_)) => self.host.unexpected_frames += 1,
+            }
+        }
+    }
+
+    /// Sends a configuration write and waits `timeout` for its report.
+    pub fn write_config(
+        &mut self,
+        cfg: &ControllerConfig,
+        timeout: Duration,
+    ) -> Result<ConfigReport, PilError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_config_write(cfg, &mut buf).map_err(PilError::Encode)?;
+        self.send_raw(frame)?;
+        self.recv_report(timeout)?
+            .ok_or(PilError::NoConfigReport(timeout))
+    }
+
+    /// Sends a configuration read and waits `timeout` for its report.
+    pub fn read_config(&mut self, timeout: Duration) -> Result<ConfigReport, PilError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_config_read(&mut buf).map_err(PilError::Encode)?;
+        self.send_raw(frame)?;
+        self.recv_report(timeout)?
+            .ok_or(PilError::NoConfigReport(timeout))
+    }
+
+    /// The next frame of either kind within `timeout` (`None` when none came). Rejected
+    /// frames are counted in [`HostLinkCounters::rx`] and skipped.
+    pub fn recv_message(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<FlightComputerMessage>, PilError> {
         let deadline = Instant::now() + timeout;
         let mut chunk = [0u8; 512];
         loop {
@@ -625,7 +703,10 @@ impl PilLink {
                 if self.rx_frame.len() < MAX_FRAME_LEN {
                     self.rx_frame.push(b);
                 }
-                let r = self.decoder.feed(b).map(|r| r.and_then(|p| p.downlink()));
+                let r = self
+                    .decoder
+                    .feed(b)
+                    .map(|r| r.and_then(|p| p.flight_computer_message()));
                 if b == 0 {
                     // A zero ends a frame (or an empty one): the bytes kept are that frame's.
                     if matches!(r, Some(Ok(_))) {
@@ -637,9 +718,13 @@ impl PilLink {
                     continue;
                 };
                 match r {
-                    Ok(d) => {
-                        self.host.rx.count_sequence(self.rx_seq.observe(d.seq));
-                        return Ok(Some(d));
+                    Ok(m) => {
+                        let seq = match &m {
+                            FlightComputerMessage::Command(d) => d.seq,
+                            FlightComputerMessage::ConfigReport(r) => r.seq,
+                        };
+                        self.host.rx.count_sequence(self.rx_seq.observe(seq));
+                        return Ok(Some(m));
                     }
                     Err(e) => self.host.rx.count(e),
                 }
@@ -728,6 +813,25 @@ impl PilFlightComputer {
         })
     }
 
+    /// Makes the firmware fly `cfg` (before the first step: the firmware takes a new
+    /// configuration in standby only). Succeeds only when the firmware reports it applied
+    /// exactly `cfg`; flying the default is a write too, so a run never depends on what the
+    /// firmware booted with.
+    pub fn configure(&mut self, cfg: &ControllerConfig) -> Result<(), PilError> {
+        let r = self.link.write_config(cfg, self.opts.step_timeout)?;
+        if r.status != ConfigStatus::Applied {
+            return Err(PilError::ConfigRefused(r.status));
+        }
+        let sent = config_id(cfg);
+        if r.config_id != sent || r.config != *cfg {
+            return Err(PilError::ConfigMismatch {
+                got: r.config_id,
+                sent,
+            });
+        }
+        Ok(())
+    }
+
     /// One step over the link: the command frame answering `input`, or why there is none.
     pub fn try_step(&mut self, input: &ControllerInput) -> Result<Downlink, PilError> {
         let seq = self.next_seq;
@@ -779,6 +883,11 @@ impl PilFlightComputer {
     /// The link (sent bytes, log, host counters).
     pub fn link(&self) -> &PilLink {
         &self.link
+    }
+
+    /// The link, to send frames of its own (a configuration read, raw bytes).
+    pub fn link_mut(&mut self) -> &mut PilLink {
+        &mut self.link
     }
 
     /// What the run measured so far.

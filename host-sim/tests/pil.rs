@@ -8,11 +8,13 @@
 //! core's `f32` arithmetic in IEEE single precision without fused or flushed operations, the
 //! outputs are in fact identical bit for bit, and that is checked too.
 
+use host_sim::montecarlo::{self, CampaignComputer, RunOutcome, RunRecord};
 use host_sim::pil::{PilFlightComputer, firmware_elf};
+use host_sim::scenario::PRESETS;
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{Outcome, Run, Scenario, run};
-use ibvs_core::wire::CostUnit;
-use ibvs_core::{Controller, ControllerConfig, Mode};
+use ibvs_core::wire::{CostUnit, config_id};
+use ibvs_core::{Controller, ControllerConfig, Mode, OuterLaw, Procedure};
 
 /// The mode sequence of a run (consecutive repeats removed).
 fn modes(r: &Run) -> Vec<Mode> {
@@ -21,13 +23,22 @@ fn modes(r: &Run) -> Vec<Mode> {
     m
 }
 
-/// Flies `scenario` in-process and through PIL, checks they match; the in-process run.
+/// Flies `scenario` with the default configuration in-process and through PIL, checks they
+/// match; the in-process run.
 fn pil_matches_in_process(scenario: &Scenario) -> Run {
-    let mut controller = Controller::new(ControllerConfig::default()).expect("default config");
+    pil_flies_like_in_process(scenario, &ControllerConfig::default())
+}
+
+/// Flies `scenario` with `cfg` in-process and through PIL (the configuration sent over the
+/// link before the first step), checks they match; the in-process run.
+fn pil_flies_like_in_process(scenario: &Scenario, cfg: &ControllerConfig) -> Run {
+    let mut controller = Controller::new(*cfg).expect("valid config");
     let reference = run(scenario, &mut controller).expect("in-process run");
 
     let elf = firmware_elf().expect("firmware ELF");
     let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
+    pil.configure(cfg)
+        .expect("the firmware applies the configuration");
     let got = run(scenario, &mut pil).expect("PIL run");
     let failure = pil.last_error().map(ToString::to_string);
     let (stats, log) = pil.shutdown();
@@ -93,4 +104,83 @@ fn pil_flies_the_gain_schedule_off_its_grid_like_the_in_process_controller() {
     assert_eq!(r.summary.outcome, Outcome::Docked, "{:?}", r.summary);
     let first = r.samples.first().expect("steps");
     assert_eq!(first.output.envelope_error, None);
+}
+
+/// Every preset's controller configuration reaches the firmware over the link and flies as
+/// in-process, bit for bit. The presets share a few configurations (the turbulence, the
+/// start and the flight condition are the world's, not the controller's); one full docking
+/// per distinct configuration is flown through PIL, the preset named first for it, and the
+/// test checks that these cover every preset.
+#[test]
+fn pil_flies_every_presets_configuration_like_the_in_process_controller() {
+    let mut flown: Vec<(ControllerConfig, &str)> = Vec::new();
+    for (name, _, _) in PRESETS {
+        let file = ScenarioFile::load(name).expect("preset");
+        let cfg = file.controller_config();
+        if flown.iter().any(|(c, _)| *c == cfg) {
+            continue;
+        }
+        let r = pil_flies_like_in_process(&file.scenario(), &cfg);
+        eprintln!("{name}: {:?}", r.summary.outcome);
+        flown.push((cfg, name));
+    }
+    let names: Vec<&str> = flown.iter().map(|f| f.1).collect();
+    eprintln!("flown through PIL: {names:?}");
+    // The law, the procedure, the gains and the camera belief all differ among them.
+    assert!(flown.len() >= 5, "{names:?}");
+    assert!(flown.iter().any(|(c, _)| c.law == OuterLaw::Pbvs));
+    assert!(flown.iter().any(|(c, _)| c.procedure == Procedure::Paper));
+    assert!(
+        flown
+            .iter()
+            .any(|(c, _)| c.procedure == Procedure::Refuelling)
+    );
+}
+
+/// A configuration the firmware refuses leaves it flying the one it had, and says why.
+#[test]
+fn pil_refuses_an_invalid_configuration_by_name_and_keeps_flying_the_old_one() {
+    let elf = firmware_elf().expect("firmware ELF");
+    let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
+    let mut bad = ControllerConfig::paper();
+    bad.refuelling.late_gate_taper_m = 0.0;
+    let e = pil.configure(&bad).expect_err("refused");
+    let text = e.to_string();
+    assert!(
+        text.contains("refuelling.late_gate_taper_m") && text.contains("NotPositive"),
+        "{text}"
+    );
+    let read = pil
+        .link_mut()
+        .read_config(std::time::Duration::from_secs(10))
+        .expect("read answered");
+    assert_eq!(read.config, ControllerConfig::default());
+    assert_eq!(read.config_id, config_id(&ControllerConfig::default()));
+    let (_, log) = pil.shutdown();
+    assert!(!log.contains("configuration 0x"), "nothing applied: {log}");
+}
+
+/// A campaign with the controller in QEMU gives the in-process campaign's records, line for
+/// line (a dispersed preset: every run its own turbulence, start and controller settings).
+#[test]
+fn a_pil_campaign_equals_the_in_process_campaign_run_for_run() {
+    let f = ScenarioFile::load("paper-level1").expect("preset");
+    let idx = montecarlo::indices(50, None);
+    let elf = firmware_elf().expect("firmware ELF");
+    let pil = montecarlo::run_campaign_on(&f, &idx, Some(2), &CampaignComputer::Pil(elf))
+        .expect("PIL campaign");
+    let local = montecarlo::run_campaign(&f, &idx, Some(2)).expect("in-process campaign");
+    assert_eq!(pil.len(), 50);
+    for (a, b) in pil.iter().zip(&local) {
+        assert_eq!(a, b);
+    }
+    let records: Vec<RunRecord> = pil
+        .iter()
+        .map(|l| serde_json::from_str(l).expect("record"))
+        .collect();
+    assert!(
+        records.iter().all(|r| r.outcome != RunOutcome::Error),
+        "{pil:?}"
+    );
+    assert!(records.iter().filter(|r| r.docked).count() >= 45, "{pil:?}");
 }
