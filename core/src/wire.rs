@@ -40,7 +40,7 @@
 //! log says which configuration flew each step.//!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 82 to 90 bytes on the wire, a command frame 140 to 332 (measured by
+//! A measurement frame is 82 to 90 bytes on the wire, a command frame 141 to 337 (measured by
 //! the tests with the largest values of every field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
@@ -77,7 +77,7 @@ pub const MAX_FRAME_LEN: usize = 640;
 pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 4;
 
 /// Largest payload of a measurement or command frame (the frames of every step), bytes: the
-/// largest command frame's 330-byte payload with a margin (tested). Their encoder clears a
+/// largest command frame's 335-byte payload with a margin (tested). Their encoder clears a
 /// scratch buffer of this size, not of [`MAX_PAYLOAD_LEN`].
 pub const STEP_PAYLOAD_LEN: usize = 344;
 
@@ -171,6 +171,9 @@ impl LinkStatus {
     pub const PANIC: u8 = 1 << 5;
     /// A panic record from before the last reset was found at boot.
     pub const PREVIOUS_PANIC: u8 = 1 << 6;
+    /// Boot frame: the configuration flown is the one found in the board's configuration
+    /// store (else the built-in default: none stored, none valid, or a board without one).
+    pub const STORED_CONFIG: u8 = 1 << 7;
 
     /// True when every bit of `mask` is set.
     pub fn contains(self, mask: u8) -> bool {
@@ -245,6 +248,8 @@ pub struct LinkCounters {
     /// Configuration writes refused: invalid, malformed, or not in standby (each answered
     /// with its [`ConfigStatus`]).
     pub config_refused: u32,
+    /// Applied configurations the board's store failed to write ([`ConfigStorage::Failed`]).
+    pub config_store_failed: u32,
 }
 
 fn bump(c: &mut u32, by: u32) {
@@ -370,6 +375,25 @@ impl ConfigStatus {
     }
 }
 
+/// Whether an applied configuration was written to the board's configuration store.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigStorage {
+    /// Nothing was to be written (a read, or a write not applied).
+    #[default]
+    NotWritten,
+    /// Written; the board boots with it. Its record's generation (+1 per write).
+    Stored {
+        /// The record's generation.
+        generation: u32,
+    },
+    /// The board has no configuration store (QEMU's): it boots with the built-in default.
+    Unavailable,
+    /// The write failed; the configuration is flown but the board boots with the previous
+    /// stored one (counted, [`LinkCounters::config_store_failed`]).
+    Failed,
+}
+
 /// Configuration report: the flight computer's answer to a configuration write or read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -378,6 +402,8 @@ pub struct ConfigReport {
     pub seq: u32,
     /// What was done with the frame answered.
     pub status: ConfigStatus,
+    /// Whether an applied configuration was stored for the next boot.
+    pub storage: ConfigStorage,
     /// [`config_id`] of `config`.
     pub config_id: u32,
     /// The configuration the controller flies after the frame answered. (The link's
@@ -419,10 +445,34 @@ pub enum FlightComputerMessage {
 /// about 2^-32.
 pub fn config_id(cfg: &ControllerConfig) -> u32 {
     let mut buf = [0u8; MAX_BODY_LEN];
-    match postcard::to_slice(cfg, &mut buf) {
+    match config_to_bytes(cfg, &mut buf) {
         Ok(bytes) => CRC32C.checksum(bytes),
         // Every configuration fits (tested); 0 would still be a stated, constant id.
         Err(_) => 0,
+    }
+}
+
+/// The postcard encoding of `cfg` in `buf` (a configuration write's body; the firmware's
+/// configuration store keeps the same bytes). Not inlined: one copy of the serialiser of
+/// the whole configuration serves every caller (it is several kilobytes of flash).
+#[inline(never)]
+pub fn config_to_bytes<'a>(
+    cfg: &ControllerConfig,
+    buf: &'a mut [u8],
+) -> Result<&'a [u8], WireError> {
+    match postcard::to_slice(cfg, buf) {
+        Ok(bytes) => Ok(bytes),
+        Err(_) => Err(WireError::TooLarge),
+    }
+}
+
+/// The configuration whose postcard encoding is exactly `bytes` ([`WireError::Malformed`]
+/// otherwise, trailing bytes included). Not inlined, as [`config_to_bytes`].
+#[inline(never)]
+pub fn config_from_bytes(bytes: &[u8]) -> Result<ControllerConfig, WireError> {
+    match postcard::take_from_bytes(bytes) {
+        Ok((cfg, [])) => Ok(cfg),
+        _ => Err(WireError::Malformed),
     }
 }
 
@@ -618,8 +668,7 @@ impl Payload<'_> {
     pub fn peer_message(&self) -> Result<PeerMessage, WireError> {
         match self.kind {
             FrameKind::Measurement => self.uplink().map(PeerMessage::Measurement),
-            FrameKind::ConfigWrite => Self::parse(self.body, self.kind, FrameKind::ConfigWrite)
-                .map(PeerMessage::ConfigWrite),
+            FrameKind::ConfigWrite => config_from_bytes(self.body).map(PeerMessage::ConfigWrite),
             FrameKind::ConfigRead => Self::parse::<()>(self.body, self.kind, FrameKind::ConfigRead)
                 .map(|()| PeerMessage::ConfigRead),
             FrameKind::Command | FrameKind::ConfigReport => Err(WireError::WrongKind),
@@ -880,6 +929,7 @@ mod tests {
             tx_errors: m,
             config_applied: m,
             config_refused: m,
+            config_store_failed: m,
         };
         let output = ControllerOutput {
             command: ActuatorCommand::from_array([-1.0; 4]),
@@ -938,6 +988,9 @@ mod tests {
             status: ConfigStatus::Rejected {
                 field,
                 problem: ConfigProblem::Inconsistent,
+            },
+            storage: ConfigStorage::Stored {
+                generation: u32::MAX,
             },
             config_id: u32::MAX,
             config: ControllerConfig::default(),
@@ -1028,7 +1081,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, frame.len()),
-            (82, 90, 140, 332),
+            (82, 90, 141, 337),
             "update the module doc"
         );
     }
