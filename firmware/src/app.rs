@@ -48,9 +48,9 @@ use ibvs_core::config::trim_command;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    ConfigReport, ConfigStatus, Cost, CostUnit, Downlink, FrameDecoder, FrameKind, LinkCounters,
-    LinkStatus, MAX_FRAME_LEN, PeerMessage, Uplink, WireError, config_id, encode_config_report,
-    encode_downlink,
+    ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit, Downlink, FrameDecoder, FrameKind,
+    LinkCounters, LinkStatus, MAX_FRAME_LEN, PeerMessage, Uplink, WireError, config_id,
+    encode_config_report, encode_downlink,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
@@ -139,6 +139,9 @@ pub trait Board {
     type Counter: CostCounter;
     /// The link.
     fn link(&mut self) -> &mut Self::Link;
+    /// Writes an applied configuration to the board's configuration store, for the next
+    /// boot (`crate::store`); a board without one answers [`ConfigStorage::Unavailable`].
+    fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage;
     /// Free-running: control periods elapsed since the last call (0: none due).
     fn take_periods(&mut self) -> u32;
     /// Receiver errors (hardware overrun, noise, framing; buffer overflow) since the last
@@ -222,18 +225,28 @@ pub struct App {
     last: Downlink,
     /// Status bits set in every frame (schedule, previous panic).
     base_status: u8,
+    /// Status bits of the boot frame only (the configuration's origin).
+    boot_status: u8,
     /// Largest stack a control step used (boards that measure it), bytes.
     control_stack_max: u32,
     /// An event to log after the current one (a new control-stack maximum).
     pending: Option<Event>,
     /// [`config_id`] of the controller's configuration.
     config_id: u32,
+    /// An applied configuration the board is still to store (then the report is sent).
+    to_persist: Option<ControllerConfig>,
     buf: [u8; MAX_FRAME_LEN],
 }
 
 impl App {
-    /// The application in standby, before the boot frame.
-    pub fn new(schedule: Schedule, previous_panic: bool) -> Result<Self, ConfigError> {
+    /// The application in standby, before the boot frame, flying `stored` (the board's
+    /// stored configuration, if it has a valid one) or else the built-in default; the boot
+    /// frame says which ([`LinkStatus::STORED_CONFIG`]).
+    pub fn new(
+        schedule: Schedule,
+        previous_panic: bool,
+        stored: Option<ControllerConfig>,
+    ) -> Result<Self, ConfigError> {
         let mut base_status = 0;
         if schedule == Schedule::FreeRunning {
             base_status |= LinkStatus::FREE_RUNNING;
@@ -241,10 +254,26 @@ impl App {
         if previous_panic {
             base_status |= LinkStatus::PREVIOUS_PANIC;
         }
-        let cfg = ControllerConfig::default();
+        // A stored configuration was validated when it was loaded; one that fails here all
+        // the same is not flown, and the default is (said in the boot frame).
+        let from_store = stored.and_then(|c| Controller::new(c).ok().map(|k| (c, k)));
+        let boot_status = if from_store.is_some() {
+            LinkStatus::STORED_CONFIG
+        } else {
+            0
+        };
+        let (cfg, controller) = match from_store {
+            Some(pair) => pair,
+            None => {
+                let cfg = ControllerConfig::default();
+                (cfg, Controller::new(cfg)?)
+            }
+        };
         Ok(Self {
-            controller: Controller::new(cfg)?,
+            controller,
             config_id: config_id(&cfg),
+            to_persist: None,
+            boot_status,
             schedule,
             decoder: FrameDecoder::new(),
             link: LinkCounters::default(),
@@ -280,7 +309,7 @@ impl App {
     pub fn boot_frame<C: CostCounter>(&mut self) -> Option<&[u8]> {
         let d = self.frame::<C>(
             None,
-            LinkStatus::BOOT | LinkStatus::STALE,
+            LinkStatus::BOOT | LinkStatus::STALE | self.boot_status,
             trim_output(),
             Cost::default(),
         );
@@ -379,7 +408,9 @@ impl App {
         match result {
             Ok((_, Ok(PeerMessage::Measurement(up)))) => self.accept::<C>(up, decode),
             Ok((_, Ok(PeerMessage::ConfigWrite(cfg)))) => self.configure(Ok(cfg)),
-            Ok((_, Ok(PeerMessage::ConfigRead))) => self.report(ConfigStatus::Active),
+            Ok((_, Ok(PeerMessage::ConfigRead))) => {
+                self.report(ConfigStatus::Active, ConfigStorage::NotWritten)
+            }
             Ok((FrameKind::ConfigWrite, Err(e))) => self.configure(Err(e)),
             Ok((_, Err(e))) | Err(e) => {
                 self.link.count(e);
@@ -403,30 +434,42 @@ impl App {
             Ok(cfg) => match self.controller.reconfigure(cfg) {
                 Ok(()) => {
                     self.config_id = config_id(&cfg);
-                    ConfigStatus::Applied
+                    self.link.config_applied = self.link.config_applied.saturating_add(1);
+                    // Answered once the board has stored it (`App::persisted`).
+                    self.to_persist = Some(cfg);
+                    return (None, Some(Event::Configured { id: self.config_id }));
                 }
                 Err(e) => ConfigStatus::refused(e),
             },
         };
-        let applied = status == ConfigStatus::Applied;
-        let counter = if applied {
-            &mut self.link.config_applied
-        } else {
-            &mut self.link.config_refused
-        };
-        *counter = counter.saturating_add(1);
-        let (len, _) = self.report(status);
-        (
-            len,
-            applied.then_some(Event::Configured { id: self.config_id }),
-        )
+        self.link.config_refused = self.link.config_refused.saturating_add(1);
+        self.report(status, ConfigStorage::NotWritten)
+    }
+
+    /// An applied configuration waiting for the board's store ([`Board::persist`]).
+    pub fn take_to_persist(&mut self) -> Option<ControllerConfig> {
+        self.to_persist.take()
+    }
+
+    /// The board stored (or could not store) the applied configuration: the length of its
+    /// report, to send.
+    pub fn persisted(&mut self, storage: ConfigStorage) -> Option<usize> {
+        if storage == ConfigStorage::Failed {
+            self.link.config_store_failed = self.link.config_store_failed.saturating_add(1);
+        }
+        self.report(ConfigStatus::Applied, storage).0
     }
 
     /// Answers a configuration frame with a report of `status` and the configuration flown.
-    fn report(&mut self, status: ConfigStatus) -> (Option<usize>, Option<Event>) {
+    fn report(
+        &mut self,
+        status: ConfigStatus,
+        storage: ConfigStorage,
+    ) -> (Option<usize>, Option<Event>) {
         let r = ConfigReport {
             seq: self.tx_seq,
             status,
+            storage,
             config_id: self.config_id,
             config: *self.controller.config(),
         };
@@ -581,6 +624,15 @@ impl App {
                 for e in event.into_iter().chain(self.take_pending_event()) {
                     board.log(e);
                 }
+                // An applied configuration: stored first (in standby; the store's time is
+                // the board's), then answered with the outcome.
+                let len = match self.take_to_persist() {
+                    Some(cfg) => {
+                        let storage = board.persist(&cfg);
+                        self.persisted(storage)
+                    }
+                    None => len,
+                };
                 if let Some(len) = len {
                     self.send(board, len);
                     sent += 1;
@@ -669,6 +721,9 @@ mod tests {
         periods: u32,
         rx_errors: u32,
         events: Vec<Event>,
+        /// What `persist` was asked to store, and what it answers.
+        stored: Vec<ControllerConfig>,
+        storage: ConfigStorage,
     }
 
     #[derive(Debug)]
@@ -733,6 +788,10 @@ mod tests {
         fn wait_for_event(&mut self) {}
         fn log(&mut self, event: Event) {
             self.events.push(event);
+        }
+        fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage {
+            self.stored.push(*cfg);
+            self.storage
         }
     }
 
@@ -799,7 +858,7 @@ mod tests {
     }
 
     fn lockstep() -> (App, Mock) {
-        let mut app = App::new(Schedule::Lockstep, false).expect("config");
+        let mut app = App::new(Schedule::Lockstep, false, None).expect("config");
         let mut board = Mock::default();
         app.boot(&mut board);
         (app, board)
@@ -932,6 +991,60 @@ mod tests {
     }
 
     #[test]
+    fn an_applied_configuration_is_stored_before_it_is_reported_and_boots_next_time() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        board.storage = ConfigStorage::Stored { generation: 4 };
+        let cfg = ControllerConfig::paper();
+        let r = board.configure(&mut app, &cfg);
+        assert_eq!(board.stored, [cfg], "stored once, before the answer");
+        assert_eq!(
+            (r.status, r.storage),
+            (ConfigStatus::Applied, board.storage)
+        );
+        // A store that fails: still applied and flown, said and counted.
+        board.storage = ConfigStorage::Failed;
+        let mut next = cfg;
+        next.ibvs.k2_mps = 2.5;
+        let r = board.configure(&mut app, &next);
+        assert_eq!(
+            (r.status, r.storage),
+            (ConfigStatus::Applied, ConfigStorage::Failed)
+        );
+        assert_eq!(r.config, next);
+        // A refused write stores nothing.
+        let mut bad = next;
+        bad.integrator_limit_m = f32::NAN;
+        let r = board.configure(&mut app, &bad);
+        assert_eq!(r.storage, ConfigStorage::NotWritten);
+        assert_eq!(board.stored, [cfg, next]);
+        board.send(1, input(1, ModeRequest::None));
+        app.poll(&mut board);
+        let l = board.frames()[0].link;
+        assert_eq!(
+            (l.config_applied, l.config_refused, l.config_store_failed),
+            (2, 1, 1)
+        );
+
+        // The next boot with what the store holds: flown, and the boot frame says so.
+        let mut app = App::new(Schedule::Lockstep, false, Some(next)).expect("valid");
+        let mut board = Mock::default();
+        app.boot(&mut board);
+        let boot = board.frames();
+        assert!(boot[0].link_status.contains(LinkStatus::STORED_CONFIG));
+        assert_eq!(boot[0].config_id, config_id(&next));
+        // Without one (or with one that does not validate), the default, and no bit.
+        for stored in [None, Some(bad)] {
+            let mut app = App::new(Schedule::Lockstep, false, stored).expect("default");
+            let mut board = Mock::default();
+            app.boot(&mut board);
+            let boot = board.frames();
+            assert!(!boot[0].link_status.contains(LinkStatus::STORED_CONFIG));
+            assert_eq!(boot[0].config_id, config_id(&ControllerConfig::default()));
+        }
+    }
+
+    #[test]
     fn a_configuration_write_is_refused_named_and_counted_unless_valid_in_standby() {
         let (mut app, mut board) = lockstep();
         board.frames();
@@ -1004,7 +1117,7 @@ mod tests {
 
     #[test]
     fn free_running_holds_then_goes_stale_then_breaks_away_open_loop() {
-        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
         let mut board = Mock::default();
         app.boot(&mut board);
         // A period before any frame: trim, no step.
@@ -1068,7 +1181,7 @@ mod tests {
 
     #[test]
     fn a_request_in_a_superseded_frame_is_not_lost() {
-        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
         let mut board = Mock::default();
         board.send(1, input(1, ModeRequest::Engage));
         board.send(2, input(2, ModeRequest::None));
@@ -1089,7 +1202,7 @@ mod tests {
 
     #[test]
     fn a_held_input_does_not_repeat_the_request() {
-        let mut app = App::new(Schedule::FreeRunning, false).expect("config");
+        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
         let mut board = Mock::default();
         board.send(1, input(1, ModeRequest::Engage));
         board.periods = 1;

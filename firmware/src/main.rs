@@ -11,8 +11,8 @@
 //!
 //! Layout (the quartiq/stabilizer pattern): [`app`] is the board-independent application
 //! (embedded-io traits at its boundary, unit-tested on the host); `board` (bare metal only)
-//! holds everything that touches the MCU, for two boards selected by cargo feature: `qemu`
-//! (default; QEMU's netduinoplus2) and `f405` (real hardware). See `firmware/README.md` for
+//! holds everything that touches the MCU, for two boards selected by cargo feature: `f405`
+//! (default; real hardware) and `qemu` (QEMU's netduinoplus2). See `firmware/README.md` for
 //! building, flashing, wiring and the processor-in-the-loop runs.
 //!
 //! At reset the firmware runs a power-on self-test ([`one_step::run`]: one controller step
@@ -26,6 +26,7 @@
 #![cfg_attr(target_os = "none", no_main)]
 
 pub mod app;
+pub mod store;
 // The path benchmark: on the boards only with the `bench` feature (it is 7 KB of flash the
 // flight build does not carry); on the host always, for its tests.
 #[cfg(any(feature = "bench", not(target_os = "none")))]

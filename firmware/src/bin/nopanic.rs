@@ -26,8 +26,8 @@ mod target {
 
     use cortex_m_rt::entry;
     use ibvs_core::wire::{
-        ConfigReport, ConfigStatus, Downlink, FrameDecoder, MAX_FRAME_LEN, PeerMessage, config_id,
-        encode_config_report, encode_downlink,
+        ConfigReport, ConfigStatus, ConfigStorage, Downlink, FrameDecoder, MAX_FRAME_LEN,
+        PeerMessage, config_id, encode_config_report, encode_downlink,
     };
     use ibvs_core::{Controller, ControllerConfig, ControllerInput};
     // The device's interrupt vectors (cortex-m-rt's link script needs them).
@@ -70,6 +70,7 @@ mod target {
                 let report = ConfigReport {
                     seq: 0,
                     status,
+                    storage: ConfigStorage::default(),
                     config_id: config_id(controller.config()),
                     config: *controller.config(),
                 };

@@ -22,6 +22,10 @@ use super::McuBoard;
 use super::fault::{FaultRecord, send_safe_frame};
 use crate::app::{App, CostCounter, Event, Schedule};
 use crate::one_step;
+use crate::store::{ConfigStore, Persist};
+use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
+use ibvs_core::wire::ConfigStorage;
+use stm32f4xx_hal::flash::{FlashExt, LockedFlash};
 
 /// Link baud rate, bit/s.
 pub const BAUD_BPS: u32 = 921_600;
@@ -116,7 +120,30 @@ pub fn start() -> ! {
         defmt::error!("firmware: SysTick reload out of range");
         super::fault::halt()
     }
-    let app = match App::new(SCHEDULE, previous.is_some()) {
+    // The configuration store in flash sectors 10 and 11 (memory.x keeps the program out of
+    // them): the newest valid configuration in it, or the default.
+    let mut store = match ConfigStore::new(
+        BoardFlash(LockedFlash::new(dp.FLASH)),
+        STORE_SLOTS,
+        STORE_SLOT_LEN,
+    ) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            defmt::error!("firmware: configuration store unusable: {}", e);
+            None
+        }
+    };
+    let loaded = store.as_mut().map(ConfigStore::load);
+    if let Some(l) = &loaded {
+        defmt::info!(
+            "firmware: configuration store: slots {}, {}; newest generation {}",
+            l.slots[0],
+            l.slots[1],
+            l.newest.map(|(_, g)| g)
+        );
+    }
+    let stored = loaded.and_then(|l| l.newest).map(|(cfg, _)| cfg);
+    let app = match App::new(SCHEDULE, previous.is_some(), stored) {
         Ok(app) => app,
         Err(e) => {
             defmt::error!(
@@ -133,7 +160,63 @@ pub fn start() -> ! {
         BAUD_BPS,
         SCHEDULE == Schedule::FreeRunning
     );
-    app.run(&mut McuBoard::<DwtCounter>::new(link))
+    app.run(&mut McuBoard::<DwtCounter, _>::new(link, BoardStore(store)))
+}
+
+/// Offsets in flash of the configuration store's two slots: sectors 10 and 11
+/// (0x080C_0000 and 0x080E_0000), 128 KiB each, outside the program (memory.x).
+const STORE_SLOTS: [u32; 2] = [0x000C_0000, 0x000E_0000];
+
+/// Length of each slot, bytes: one 128 KiB sector.
+const STORE_SLOT_LEN: u32 = 128 * 1024;
+
+/// The board's flash as embedded-storage NOR flash: read while locked, unlocked only for the
+/// duration of each erase or write (the HAL relocks when the unlocked handle drops).
+/// An erase of a 128 KiB sector takes about 1 to 2 s (RM0090 and the datasheet's sector
+/// erase time at x8 parallelism), during which the CPU stalls on flash fetches and serial
+/// bytes arriving are lost (counted as receiver overruns); configurations are written in
+/// standby only.
+struct BoardFlash(LockedFlash);
+
+impl ErrorType for BoardFlash {
+    type Error = stm32f4xx_hal::flash::Error;
+}
+
+impl ReadNorFlash for BoardFlash {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        ReadNorFlash::read(&mut self.0, offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        ReadNorFlash::capacity(&self.0)
+    }
+}
+
+impl NorFlash for BoardFlash {
+    const WRITE_SIZE: usize = 1;
+    const ERASE_SIZE: usize = 128 * 1024;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        NorFlash::erase(&mut self.0.unlocked(), from, to)
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        NorFlash::write(&mut self.0.unlocked(), offset, bytes)
+    }
+}
+
+/// The store, or none when its layout was refused at boot (then every write is `Failed`).
+struct BoardStore(Option<ConfigStore<BoardFlash>>);
+
+impl Persist for BoardStore {
+    fn persist(&mut self, cfg: &ibvs_core::ControllerConfig) -> ConfigStorage {
+        match &mut self.0 {
+            Some(s) => s.persist(cfg),
+            None => ConfigStorage::Failed,
+        }
+    }
 }
 
 /// Logs an application event over defmt.

@@ -1,7 +1,7 @@
 //! Board code (bare metal only): everything that touches the MCU, behind one module boundary.
 //!
-//! Place in the data flow: the reset entry selects the board (cargo feature `qemu`, the
-//! default, or `f405`), runs the power-on self-test ([`crate::one_step::run`]), brings up the
+//! Place in the data flow: the reset entry selects the board (cargo feature `f405`, the
+//! default, or `qemu`), runs the power-on self-test ([`crate::one_step::run`]), brings up the
 //! serial link and the timers, and hands a [`crate::app::Board`] to the board-independent
 //! [`crate::app::App::run`]. The parts both boards share live here:
 //! - [`usart1`]: USART1 with an interrupt-fed receive queue and polled transmit, behind the
@@ -23,9 +23,11 @@
 //! `// Note(unsafe): ...` saying why it is sound.
 
 #[cfg(all(feature = "qemu", feature = "f405"))]
-compile_error!("select exactly one board: `--no-default-features --features f405` for the f405");
+compile_error!(
+    "select exactly one board: `--no-default-features --features qemu` for the QEMU board"
+);
 #[cfg(not(any(feature = "qemu", feature = "f405")))]
-compile_error!("select a board feature: `qemu` (default) or `f405`");
+compile_error!("select a board feature: `f405` (default) or `qemu`");
 
 pub mod fault;
 pub mod stack;
@@ -45,6 +47,7 @@ use qemu as selected;
 use cortex_m_rt::entry;
 
 use crate::app::{Board, Event};
+use crate::store::Persist;
 
 /// Reset entry (after cortex-m-rt has initialised .data and .bss): the selected board's
 /// start-up, then the application, forever.
@@ -53,24 +56,26 @@ fn main() -> ! {
     selected::start()
 }
 
-/// The board the application runs on: the shared link and tick, the board's counter and
-/// logger.
-pub struct McuBoard<C> {
+/// The board the application runs on: the shared link and tick, the board's counter,
+/// logger and configuration store.
+pub struct McuBoard<C, S> {
     link: usart1::SerialLink,
+    store: S,
     _counter: core::marker::PhantomData<C>,
 }
 
-impl<C> McuBoard<C> {
-    /// The board around an initialised link.
-    pub fn new(link: usart1::SerialLink) -> Self {
+impl<C, S> McuBoard<C, S> {
+    /// The board around an initialised link and its configuration store.
+    pub fn new(link: usart1::SerialLink, store: S) -> Self {
         Self {
             link,
+            store,
             _counter: core::marker::PhantomData,
         }
     }
 }
 
-impl<C: crate::app::CostCounter> Board for McuBoard<C> {
+impl<C: crate::app::CostCounter, S: Persist> Board for McuBoard<C, S> {
     type Link = usart1::SerialLink;
     type Counter = C;
 
@@ -104,5 +109,9 @@ impl<C: crate::app::CostCounter> Board for McuBoard<C> {
 
     fn log(&mut self, event: Event) {
         selected::log(event);
+    }
+
+    fn persist(&mut self, cfg: &ibvs_core::ControllerConfig) -> ibvs_core::wire::ConfigStorage {
+        self.store.persist(cfg)
     }
 }

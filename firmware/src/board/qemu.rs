@@ -29,6 +29,7 @@ use crate::app::{App, CostCounter, Event, Schedule};
 use crate::bench;
 use crate::one_step;
 use crate::one_step::Micro;
+use crate::store::NoStore;
 
 /// The stack high-water mark, as text ("4628 B" or "unknown").
 struct StackMark;
@@ -173,7 +174,7 @@ pub fn start() -> ! {
         // through QEMU's semihosting command line.
         panic!("panic-test requested on the semihosting command line");
     }
-    let app = match App::new(schedule, previous.is_some()) {
+    let app = match App::new(schedule, previous.is_some(), None) {
         Ok(app) => app,
         Err(e) => {
             hprintln!("firmware: configuration rejected: {}", e);
@@ -185,7 +186,8 @@ pub fn start() -> ! {
         "firmware: qemu board, {:?} schedule, link on USART1",
         schedule
     );
-    app.run(&mut McuBoard::<Tim2Counter>::new(link))
+    // QEMU's flash is read-only: no configuration store, the default at every boot.
+    app.run(&mut McuBoard::<Tim2Counter, _>::new(link, NoStore))
 }
 
 /// Logs an application event as a semihosting line.
