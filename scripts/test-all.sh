@@ -4,7 +4,8 @@
 #   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
 #      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump, for the static
 #      bound of the control step in the benchmark gate);
-#   2. both firmware boards cross-built: the core links for the STM32F405 with no allocator
+#   2. both firmware boards cross-built (the real board is the default build, the QEMU board
+#      an explicit feature): the core links for the STM32F405 with no allocator
 #      (a use of `alloc` would fail this link);
 #   3. the qemu board run in QEMU's netduinoplus2 (an emulated STM32F405): its power-on
 #      self-test steps the controller once and exits 0 only if the step was right; then the
@@ -24,14 +25,16 @@ if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump
     apt-get install -y --no-install-recommends qemu-system-arm binutils-arm-none-eabi
 fi
 
+# The real board (the default build) and the QEMU board (chosen explicitly, its own target dir).
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release
 cargo build --locked -p firmware --target thumbv7em-none-eabihf --release \
-    --no-default-features --features f405 --target-dir target/f405
-timeout 120 cargo run --locked -p firmware --target thumbv7em-none-eabihf --release
+    --no-default-features --features qemu --target-dir target/qemu
+timeout 120 cargo run --locked -p firmware --target thumbv7em-none-eabihf --release \
+    --no-default-features --features qemu --target-dir target/qemu
 # The path benchmark (the `bench` feature, off in the flight build): its scripted sortie must
 # visit every path of the step on the emulated MCU ("script_ok": true).
-cargo build --locked -p firmware --target thumbv7em-none-eabihf --release --features bench \
-    --target-dir target/qemu-bench
+cargo build --locked -p firmware --target thumbv7em-none-eabihf --release \
+    --no-default-features --features qemu,bench --target-dir target/qemu-bench
 timeout 120 qemu-system-arm -machine netduinoplus2 -cpu cortex-m4 -icount shift=0 \
     -display none -monitor none -serial null \
     -semihosting-config enable=on,target=native,arg=firmware,arg=bench \
@@ -40,7 +43,7 @@ grep -q '"script_ok": true' target/qemu-bench/bench.txt
 cargo fmt --all -- --check
 cargo clippy --locked --workspace --all-targets -- -D warnings
 RUSTDOCFLAGS="-D warnings" cargo doc --locked --workspace --no-deps
-export IBVS_FIRMWARE_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
-export IBVS_FIRMWARE_F405_ELF="$PWD/target/f405/thumbv7em-none-eabihf/release/firmware"
+export IBVS_FIRMWARE_ELF="$PWD/target/qemu/thumbv7em-none-eabihf/release/firmware"
+export IBVS_FIRMWARE_F405_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
 cargo test --locked --workspace --all-targets
 cargo test --locked --workspace --doc

@@ -27,8 +27,8 @@ use ibvs_core::estimator::TipGeometry;
 use ibvs_core::gains::TRIM;
 use ibvs_core::nav::{FlightCondition, NavSample};
 use ibvs_core::wire::{
-    CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Uplink, encode_downlink,
-    encode_uplink,
+    CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, PeerMessage, Uplink, WireError,
+    config_id, encode_config_write, encode_downlink, encode_uplink,
 };
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
@@ -80,6 +80,14 @@ pub struct Costs {
     /// envelope (off the grid): the interpolation of the whole design and its loading
     /// (`Controller::follow_schedule`, outside the step).
     pub follow_schedule: u32,
+    /// Configuration write frame on the wire (the paper's configuration), bytes.
+    pub config_frame_len: usize,
+    /// Decoding it: every byte through [`FrameDecoder::feed`] and the configuration's
+    /// deserialisation.
+    pub decode_config: u32,
+    /// Applying it: [`Controller::reconfigure`] (validation, the controller rebuilt) and the
+    /// configuration's id (`config_id`), as the application does in standby.
+    pub apply_config: u32,
 }
 
 impl Costs {
@@ -114,7 +122,8 @@ impl core::fmt::Display for Json<'_> {
             ", \"steps\": {}, \"script_ok\": {}, \"measurement_frame_bytes\": {}, \
              \"decode_measurement\": {}, \"decode_measurement_zero_nav\": {}, \
              \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}, \
-             \"follow_schedule\": {}}}",
+             \"follow_schedule\": {}, \"config_frame_bytes\": {}, \"decode_config\": {}, \
+             \"apply_config\": {}}}",
             c.steps,
             c.script_ok,
             c.measurement_frame_len,
@@ -123,7 +132,10 @@ impl core::fmt::Display for Json<'_> {
             c.crc_measurement,
             c.command_frame_len,
             c.encode_command,
-            c.follow_schedule
+            c.follow_schedule,
+            c.config_frame_len,
+            c.decode_config,
+            c.apply_config
         )
     }
 }
@@ -135,19 +147,24 @@ fn perturbed_nav() -> NavSample {
     ])
 }
 
-/// Decodes `frame` through a fresh decoder; the cost.
-fn decode_cost<C: CostCounter>(frame: &[u8]) -> u32 {
+/// Decodes `frame` through a fresh decoder as the application does (the message the
+/// flight computer takes); the cost and the message.
+fn decode_timed<C: CostCounter>(frame: &[u8]) -> (u32, Option<Result<PeerMessage, WireError>>) {
     let mut decoder = FrameDecoder::new();
     let mut decoded = None;
     let t0 = C::now();
     for &b in black_box(frame) {
         if let Some(r) = decoder.feed(b) {
-            decoded = Some(r.and_then(|p| p.uplink()));
+            decoded = Some(r.and_then(|p| p.peer_message()));
         }
     }
     let cost = C::now().wrapping_sub(t0);
-    black_box(decoded);
-    cost
+    (cost, black_box(decoded))
+}
+
+/// The cost of decoding `frame` ([`decode_timed`]).
+fn decode_cost<C: CostCounter>(frame: &[u8]) -> u32 {
+    decode_timed::<C>(frame).0
 }
 
 /// A frame of the drogue `right`, `down` of the probe tip and `depth` ahead of it, as the
@@ -302,17 +319,48 @@ fn follow_schedule<C: CostCounter>() -> Option<u32> {
     loaded.then_some(cost)
 }
 
+/// The configuration path's costs: `(frame bytes, decode, apply)`, on a controller in
+/// standby given the paper's configuration; `None` if the frame was not taken or applied.
+fn config_path<C: CostCounter>() -> Option<(usize, u32, u32)> {
+    let mut controller = Controller::new(ControllerConfig::default()).ok()?;
+    let cfg = ControllerConfig::paper();
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let frame = encode_config_write(&cfg, &mut buf).ok()?;
+    let len = frame.len();
+    let (decode, decoded) = decode_timed::<C>(frame);
+    let Some(Ok(PeerMessage::ConfigWrite(got))) = decoded else {
+        return None;
+    };
+    let t0 = C::now();
+    let applied = black_box(&mut controller).reconfigure(black_box(got));
+    let id = config_id(controller.config());
+    let apply = C::now().wrapping_sub(t0);
+    black_box(id);
+    applied.ok().map(|()| (len, decode, apply))
+}
+
 /// Measures the costs once (the figures are deterministic under QEMU).
 pub fn measure<C: CostCounter>() -> Costs {
     let mut costs = Costs::default();
     // First, on its own controller (not alive beside the script's: the stack stays that of
     // one controller at a time).
     let follow = follow_schedule::<C>();
+    let config = config_path::<C>();
     let Some((controller, mut input, output)) = steps::<C>(&mut costs) else {
         return costs;
     };
     match follow {
         Some(cost) => costs.follow_schedule = cost,
+        None => costs.script_ok = false,
+    }
+    match config {
+        Some((len, decode, apply)) => {
+            (
+                costs.config_frame_len,
+                costs.decode_config,
+                costs.apply_config,
+            ) = (len, decode, apply);
+        }
         None => costs.script_ok = false,
     }
     input.nav = perturbed_nav();
@@ -379,7 +427,10 @@ mod tests {
             "{text}"
         );
         assert!(
-            text.ends_with("\"encode_command\": 0, \"follow_schedule\": 0}"),
+            text.ends_with(
+                "\"follow_schedule\": 0, \"config_frame_bytes\": 0, \"decode_config\": 0, \
+                 \"apply_config\": 0}"
+            ),
             "{text}"
         );
         assert_eq!(text.matches('{').count(), text.matches('}').count());
@@ -393,6 +444,7 @@ mod tests {
         assert!((82..=98).contains(&c.measurement_frame_len), "{c:?}");
         assert!((126..=297).contains(&c.command_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
+        assert!((400..=420).contains(&c.config_frame_len), "{c:?}");
         assert_eq!(c.step_stack_bytes, None);
     }
 }

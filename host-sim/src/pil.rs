@@ -341,17 +341,17 @@ pub fn workspace_root() -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
-/// Where `cargo build -p firmware --target thumbv7em-none-eabihf --release` puts the ELF.
+/// Where [`FIRMWARE_BUILD_COMMAND`] puts the `qemu` board's ELF.
 pub fn default_firmware_elf() -> PathBuf {
     target_dir()
+        .join("qemu")
         .join(FIRMWARE_TARGET)
         .join("release")
         .join("firmware")
 }
 
 /// The command that builds the `qemu` board's ELF at [`default_firmware_elf`].
-pub const FIRMWARE_BUILD_COMMAND: &str =
-    "cargo build -p firmware --target thumbv7em-none-eabihf --release";
+pub const FIRMWARE_BUILD_COMMAND: &str = "cargo build -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features qemu --target-dir target/qemu";
 
 /// The firmware ELF for PIL: the file named by `IBVS_FIRMWARE_ELF` if set, otherwise
 /// [`default_firmware_elf`]. Nothing is built here: the ELF flown is the one the user (or the

@@ -7,7 +7,7 @@
 //! replayed through the `qemu` firmware in QEMU (exact instruction counts), the ELFs' sizes.
 //! The firmware ELFs: `IBVS_FIRMWARE_ELF` (qemu board) and `IBVS_FIRMWARE_F405_ELF` (f405
 //! board) when set, as `scripts/test-all.sh` does; otherwise the default build paths
-//! (`target/thumbv7em-none-eabihf/release/firmware`, `target/f405/...`), which must exist:
+//! (`target/qemu/thumbv7em-none-eabihf/release/firmware`, `target/thumbv7em-none-eabihf/...`), which must exist:
 //! the runner builds nothing. Needs `qemu-system-arm`, like the PIL tests.
 //!
 //! When a change makes a figure grow on purpose, update the expectation in the same change

@@ -103,7 +103,7 @@ fn lockstep_counts_every_fault_recovers_framing_and_still_docks() {
     *tail_garbage.last_mut().expect("non-empty") = 0x17; // runs into the frame: frame lost
     let mut flushed_garbage = garbage(64, 0x0123_4567_89AB_CDEF);
     flushed_garbage.push(0); // ends in a zero: the frame after it survives
-    let mut oversize = vec![0x55; 600];
+    let mut oversize = vec![0x55; MAX_FRAME_LEN + 80];
     oversize.push(0);
     let mut wrong_kind = vec![0u8];
     let mut buf = [0u8; MAX_FRAME_LEN];

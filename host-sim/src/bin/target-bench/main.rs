@@ -425,7 +425,7 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
 }
 
 /// The command that builds the `f405` board's ELF where [`f405_elf`] looks by default.
-const F405_BUILD_COMMAND: &str = "cargo build -p firmware --target thumbv7em-none-eabihf --release --no-default-features --features f405 --target-dir target/f405";
+const F405_BUILD_COMMAND: &str = "cargo build -p firmware --target thumbv7em-none-eabihf --release";
 
 fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     match arg {
@@ -435,14 +435,13 @@ fn qemu_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
 }
 
 /// The `f405` board's ELF: `--f405-elf`, else `IBVS_FIRMWARE_F405_ELF`, else
-/// `<target>/f405/thumbv7em-none-eabihf/release/firmware`; it must exist (nothing is built
+/// `<target>/thumbv7em-none-eabihf/release/firmware` (the default build); it must exist (nothing is built
 /// here), and a missing one is an error naming [`F405_BUILD_COMMAND`].
 fn f405_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     let p = arg
         .or_else(|| std::env::var_os(F405_ELF_ENV).map(PathBuf::from))
         .unwrap_or_else(|| {
             pil::target_dir()
-                .join("f405")
                 .join(pil::FIRMWARE_TARGET)
                 .join("release")
                 .join("firmware")
