@@ -6,6 +6,7 @@
 //! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
 //!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
 //!                    [--json] [--out DIR] [--no-files] [--pil [--firmware ELF]]
+//!                    [--hil --serial PATH [--baud B]]
 //!                    [--animate [--still-s T]] [--log PATH.mcap]
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
@@ -33,6 +34,7 @@ use host_sim::synthesis::{
 };
 use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::Controller;
+use ibvs_core::wire::CostUnit;
 
 #[derive(Parser)]
 #[command(
@@ -110,6 +112,16 @@ enum Command {
         /// Firmware ELF for `--pil` (default: `IBVS_FIRMWARE_ELF`, or the default build path).
         #[arg(long, value_name = "PATH", requires = "pil")]
         firmware: Option<PathBuf>,
+        /// Hardware in the loop: fly the controller on a board (lockstep firmware) behind the
+        /// serial device of `--serial` (firmware/README.md, "Hardware in the loop").
+        #[arg(long, requires = "serial", conflicts_with = "pil")]
+        hil: bool,
+        /// The serial device of `--hil` (e.g. /dev/ttyUSB0).
+        #[arg(long, value_name = "PATH", requires = "hil")]
+        serial: Option<PathBuf>,
+        /// The serial link's speed for `--hil`, bit/s (8N1, no flow control).
+        #[arg(long, value_name = "B", default_value_t = 921_600, requires = "hil")]
+        baud: u32,
         /// Also write dock.gif: chase views and the camera's image, animated (docs/logs.md).
         #[arg(long, conflicts_with = "no_files")]
         animate: bool,
@@ -237,6 +249,9 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             no_files,
             pil,
             firmware,
+            hil,
+            serial,
+            baud,
             animate,
             still_s,
             log,
@@ -265,10 +280,10 @@ fn run(cli: Cli) -> Result<(), AnyError> {
                 f.duration_s = t;
             }
             f.validate()?;
-            let computer = if pil {
-                Computer::Pil(firmware)
-            } else {
-                Computer::InProcess
+            let computer = match (pil, hil.then_some(serial).flatten()) {
+                (true, _) => Computer::Pil(firmware),
+                (false, Some(path)) => Computer::Hil { path, baud },
+                (false, None) => Computer::InProcess,
             };
             let record = Record {
                 animate,
@@ -484,6 +499,13 @@ enum Computer {
     InProcess,
     /// The firmware in QEMU (optionally a given ELF).
     Pil(Option<PathBuf>),
+    /// A board behind a serial device.
+    Hil {
+        /// The device.
+        path: PathBuf,
+        /// Its speed, bit/s.
+        baud: u32,
+    },
 }
 
 fn dock(
@@ -503,12 +525,20 @@ fn dock(
             (run, None)
         }
         Computer::InProcess => (sim::run(&scenario, &mut Controller::new(cfg)?)?, None),
-        Computer::Pil(elf) => {
-            let elf = match elf {
-                Some(p) => p,
-                None => pil::firmware_elf()?,
+        Computer::Pil(_) | Computer::Hil { .. } => {
+            let (mut fc, flag) = if let Computer::Hil { path, baud } = computer {
+                let opts = pil::PilOptions::default();
+                (
+                    pil::PilFlightComputer::open_serial(&path, baud, opts)?,
+                    "--hil",
+                )
+            } else {
+                let elf = match computer {
+                    Computer::Pil(Some(p)) => p,
+                    _ => pil::firmware_elf()?,
+                };
+                (pil::PilFlightComputer::spawn(&elf)?, "--pil")
             };
-            let mut fc = pil::PilFlightComputer::spawn(&elf)?;
             // The scenario's controller configuration, over the link, before the first step.
             fc.configure(&cfg)?;
             let run = if record.any() {
@@ -522,7 +552,7 @@ fn dock(
             let (stats, log) = fc.shutdown();
             if let Some(e) = failure {
                 return Err(
-                    format!("--pil: the serial link failed: {e}\nfirmware log:\n{log}").into(),
+                    format!("{flag}: the serial link failed: {e}\nfirmware log:\n{log}").into(),
                 );
             }
             (run, Some(stats))
@@ -545,9 +575,14 @@ fn dock(
         if let (Some(stats), Some(obj)) = (&pil, v.as_object_mut()) {
             let cost = stats
                 .step_cost
-                .ok_or("--pil: the firmware reported no step cost")?;
+                .ok_or("the firmware reported no step cost")?;
+            // Instructions under QEMU, cycles on a board (its DWT counter).
+            let key = match cost.unit {
+                CostUnit::Cycles => "step_cycles",
+                _ => "step_instructions",
+            };
             obj.insert(
-                "step_instructions".into(),
+                key.into(),
                 serde_json::json!({ "min": cost.min, "median": cost.median, "max": cost.max }),
             );
             obj.insert(
@@ -560,8 +595,15 @@ fn dock(
         println!("{}", output::one_line(s));
         if let Some(cost) = pil.as_ref().and_then(|p| p.step_cost) {
             println!(
-                "step on the MCU: {} / {} / {} instructions (min / median / max over {} steps)",
-                cost.min, cost.median, cost.max, cost.samples
+                "step on the MCU: {} / {} / {} {} (min / median / max over {} steps)",
+                cost.min,
+                cost.median,
+                cost.max,
+                match cost.unit {
+                    CostUnit::Cycles => "cycles",
+                    _ => "instructions",
+                },
+                cost.samples
             );
         }
     }

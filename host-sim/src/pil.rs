@@ -1,5 +1,7 @@
 //! Processor-in-the-loop (PIL): the firmware runs inside QEMU's emulated STM32F405 and flies
-//! the simulated receiver over its real serial link.
+//! the simulated receiver over its real serial link; and hardware in the loop (HIL): the same
+//! link over a serial device to a board ([`PilLink::open_serial`], `serialport`), tested
+//! against QEMU on a pty ([`QemuPty`]).
 //!
 //! Place in the data flow: [`PilFlightComputer`] implements [`FlightComputer`], so
 //! [`crate::sim::run`] drives it exactly like the in-process controller: each step's
@@ -145,6 +147,17 @@ pub enum PilError {
     /// Socket or file I/O.
     #[error("PIL link I/O: {0}")]
     Io(#[from] io::Error),
+    /// The serial device could not be opened or set up.
+    #[error("serial device {path}: {source}")]
+    Serial {
+        /// The device.
+        path: PathBuf,
+        /// Why.
+        source: serialport::Error,
+    },
+    /// The serial device closed (end of file).
+    #[error("the serial link closed")]
+    LinkClosed,
 }
 
 /// The firmware's schedule, chosen on its semihosting command line.
@@ -386,12 +399,35 @@ fn run_dir() -> io::Result<PathBuf> {
     Ok(dir)
 }
 
-/// The serial link to a firmware running in QEMU: frames out and in, faults, counts.
+/// A byte stream to the firmware with a read timeout: QEMU's socket (PIL) or a serial
+/// device (HIL).
+pub trait Transport: Read + Write + std::fmt::Debug + Send {
+    /// Makes the next reads return after at most `timeout` (a timeout or `WouldBlock`
+    /// error when nothing came).
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()>;
+}
+
+impl Transport for UnixStream {
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        UnixStream::set_read_timeout(self, Some(timeout))
+    }
+}
+
+impl Transport for serialport::TTYPort {
+    fn set_read_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        serialport::SerialPort::set_timeout(self, timeout).map_err(io::Error::other)
+    }
+}
+
+/// The serial link to a firmware: frames out and in, faults, counts. Over QEMU's socket
+/// (processor in the loop, [`PilLink::spawn`]: the link owns the emulator) or over a serial
+/// device (hardware in the loop, [`PilLink::open_serial`]: a board, or QEMU on a pty).
 #[derive(Debug)]
 pub struct PilLink {
-    child: Child,
+    /// The emulator, when this link started one.
+    child: Option<Child>,
     exited: Option<ExitStatus>,
-    stream: UnixStream,
+    stream: Box<dyn Transport>,
     dir: PathBuf,
     log: PathBuf,
     decoder: FrameDecoder,
@@ -408,11 +444,38 @@ pub struct PilLink {
     last_rx_frame: Vec<u8>,
 }
 
+/// Starts QEMU's netduinoplus2 with `elf`, its USART1 on the chardev `serial` (`unix:PATH`
+/// or `pty`), the semihosting command line of `opts` (its schedule and extra words), and
+/// QEMU's stdout and stderr (the firmware's semihosting log) into the file `log`.
+fn start_qemu(elf: &Path, opts: &PilOptions, serial: &str, log: &Path) -> Result<Child, PilError> {
+    let log_file = File::create(log)?;
+    let mut semihosting = String::from("enable=on,target=native,arg=firmware");
+    if opts.schedule == FirmwareSchedule::FreeRunning {
+        semihosting.push_str(",arg=free-running");
+    }
+    for word in &opts.firmware_args {
+        semihosting.push_str(",arg=");
+        semihosting.push_str(word);
+    }
+    let program = opts.qemu.display().to_string();
+    Command::new(&opts.qemu)
+        .args(["-machine", "netduinoplus2", "-cpu", "cortex-m4"])
+        .args(["-icount", "shift=0", "-display", "none", "-monitor", "none"])
+        .args(["-semihosting-config", &semihosting])
+        .args(["-serial", serial, "-kernel"])
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(log_file.try_clone()?)
+        .stderr(log_file)
+        .spawn()
+        .map_err(|source| PilError::Spawn { program, source })
+}
+
 impl Drop for PilLink {
     fn drop(&mut self) {
-        if self.exited.is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
+        if let (None, Some(child)) = (self.exited, &mut self.child) {
+            let _ = child.kill();
+            let _ = child.wait();
         }
         if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
             let _ = fs::remove_dir_all(&self.dir);
@@ -431,34 +494,98 @@ impl PilLink {
         let log = dir.join("qemu.log");
         let listener = UnixListener::bind(&socket)?;
         listener.set_nonblocking(true)?;
-        let log_file = File::create(&log)?;
-        let mut semihosting = String::from("enable=on,target=native,arg=firmware");
-        if opts.schedule == FirmwareSchedule::FreeRunning {
-            semihosting.push_str(",arg=free-running");
+        let serial = format!("unix:{}", socket.display());
+        let child = start_qemu(elf, opts, &serial, &log)?;
+        let mut link = Self::around(
+            Some(child),
+            // Replaced below once QEMU connects; a placeholder pair keeps `Drop` simple.
+            Box::new(UnixStream::pair()?.0),
+            dir,
+            log,
+            opts,
+        );
+        let deadline = Instant::now() + opts.boot_timeout;
+        let stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    link.check_alive()?;
+                    if Instant::now() > deadline {
+                        return Err(PilError::ConnectTimeout(opts.boot_timeout));
+                    }
+                    thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(e.into()),
+            }
+        };
+        stream.set_nonblocking(false)?;
+        link.stream = Box::new(stream);
+        let remaining = deadline.saturating_duration_since(Instant::now());
+        match link.recv(remaining)? {
+            Some(d) if d.link_status.contains(LinkStatus::BOOT) => link.boot = d,
+            Some(d) if d.link_status.contains(LinkStatus::PANIC) => {
+                return Err(link.panicked(&d));
+            }
+            _ => return Err(PilError::NoBootFrame(opts.boot_timeout)),
         }
-        for word in &opts.firmware_args {
-            semihosting.push_str(",arg=");
-            semihosting.push_str(word);
+        Ok(link)
+    }
+
+    /// A link over the serial device at `path` (hardware in the loop), at `baud`, 8N1, no
+    /// flow control, raw. The firmware booted before the device was opened, so there is no
+    /// boot frame to wait for: a configuration read is sent once a second until a report
+    /// answers it (a pty's other end may drop what it writes until it notices the device
+    /// open), within `opts.boot_timeout`. [`PilLink::boot_frame`] is then a placeholder
+    /// holding the trim commands, which a step that failed before any answer returns.
+    pub fn open_serial(path: &Path, baud: u32, opts: &PilOptions) -> Result<Self, PilError> {
+        let port = serialport::new(path.to_string_lossy(), baud)
+            .data_bits(serialport::DataBits::Eight)
+            .parity(serialport::Parity::None)
+            .stop_bits(serialport::StopBits::One)
+            .flow_control(serialport::FlowControl::None)
+            .timeout(Duration::from_millis(100))
+            .open_native()
+            .map_err(|source| PilError::Serial {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        let dir = run_dir()?;
+        let log = dir.join("hil.log");
+        fs::write(
+            &log,
+            format!(
+                "hardware in the loop over {} at {baud} baud\n",
+                path.display()
+            ),
+        )?;
+        let mut link = Self::around(None, Box::new(port), dir, log, opts);
+        link.boot.output.command =
+            ibvs_core::actuator::ActuatorCommand::from_array(ibvs_core::config::trim_command());
+        let deadline = Instant::now() + opts.boot_timeout;
+        while Instant::now() < deadline {
+            let wait =
+                Duration::from_secs(1).min(deadline.saturating_duration_since(Instant::now()));
+            match link.read_config(wait) {
+                Ok(_) => return Ok(link),
+                Err(PilError::NoConfigReport(_)) => {}
+                Err(e) => return Err(e),
+            }
         }
-        let program = opts.qemu.display().to_string();
-        let child = Command::new(&opts.qemu)
-            .args(["-machine", "netduinoplus2", "-cpu", "cortex-m4"])
-            .args(["-icount", "shift=0", "-display", "none", "-monitor", "none"])
-            .args(["-semihosting-config", &semihosting])
-            .arg("-serial")
-            .arg(format!("unix:{}", socket.display()))
-            .arg("-kernel")
-            .arg(elf)
-            .stdin(Stdio::null())
-            .stdout(log_file.try_clone()?)
-            .stderr(log_file)
-            .spawn()
-            .map_err(|source| PilError::Spawn { program, source })?;
-        let mut link = Self {
+        Err(PilError::NoConfigReport(opts.boot_timeout))
+    }
+
+    /// The link's state around a transport.
+    fn around(
+        child: Option<Child>,
+        stream: Box<dyn Transport>,
+        dir: PathBuf,
+        log: PathBuf,
+        opts: &PilOptions,
+    ) -> Self {
+        Self {
             child,
             exited: None,
-            // Replaced below once QEMU connects; a placeholder pair keeps `Drop` simple.
-            stream: UnixStream::pair()?.0,
+            stream,
             dir,
             log,
             decoder: FrameDecoder::new(),
@@ -472,38 +599,17 @@ impl PilLink {
             boot: Downlink::default(),
             rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
             last_rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
-        };
-        let deadline = Instant::now() + opts.boot_timeout;
-        link.stream = loop {
-            match listener.accept() {
-                Ok((s, _)) => break s,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    link.check_alive()?;
-                    if Instant::now() > deadline {
-                        return Err(PilError::ConnectTimeout(opts.boot_timeout));
-                    }
-                    thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => return Err(e.into()),
-            }
-        };
-        link.stream.set_nonblocking(false)?;
-        let remaining = deadline.saturating_duration_since(Instant::now());
-        match link.recv(remaining)? {
-            Some(d) if d.link_status.contains(LinkStatus::BOOT) => link.boot = d,
-            Some(d) if d.link_status.contains(LinkStatus::PANIC) => {
-                return Err(link.panicked(&d));
-            }
-            _ => return Err(PilError::NoBootFrame(opts.boot_timeout)),
         }
-        Ok(link)
     }
 
     /// The error for a panic frame, once QEMU has finished (so the log is complete).
     fn panicked(&mut self, d: &Downlink) -> PilError {
         let deadline = Instant::now() + Duration::from_secs(5);
-        while self.exited.is_none() && Instant::now() < deadline {
-            self.exited = self.child.try_wait().ok().flatten();
+        while let (None, Some(child)) = (self.exited, &mut self.child) {
+            if Instant::now() >= deadline {
+                break;
+            }
+            self.exited = child.try_wait().ok().flatten();
             thread::sleep(Duration::from_millis(10));
         }
         PilError::FirmwarePanicked {
@@ -515,8 +621,8 @@ impl PilLink {
 
     /// QEMU's exit status, once it has exited.
     pub fn exit_status(&mut self) -> Option<ExitStatus> {
-        if self.exited.is_none() {
-            self.exited = self.child.try_wait().ok().flatten();
+        if let (None, Some(child)) = (self.exited, &mut self.child) {
+            self.exited = child.try_wait().ok().flatten();
         }
         self.exited
     }
@@ -560,8 +666,8 @@ impl PilLink {
 
     /// Returns `FirmwareExited` if QEMU has exited.
     fn check_alive(&mut self) -> Result<(), PilError> {
-        if self.exited.is_none() {
-            self.exited = self.child.try_wait()?;
+        if let (None, Some(child)) = (self.exited, &mut self.child) {
+            self.exited = child.try_wait()?;
         }
         match self.exited {
             None => Ok(()),
@@ -677,8 +783,17 @@ impl PilLink {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let frame = encode_config_write(cfg, &mut buf).map_err(PilError::Encode)?;
         self.send_raw(frame)?;
-        self.recv_report(timeout)?
-            .ok_or(PilError::NoConfigReport(timeout))
+        // A write is never answered `Active`: such a report answers an earlier read (a
+        // serial link's hello, `open_serial`, answered late) and is skipped, counted.
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv_report(left)? {
+                Some(r) if r.status == ConfigStatus::Active => self.host.unexpected_frames += 1,
+                Some(r) => return Ok(r),
+                None => return Err(PilError::NoConfigReport(timeout)),
+            }
+        }
     }
 
     /// Sends a configuration read and waits `timeout` for its report.
@@ -734,10 +849,13 @@ impl PilLink {
                 return Ok(None);
             }
             self.stream
-                .set_read_timeout(Some((deadline - now).max(Duration::from_micros(100))))?;
+                .set_read_timeout((deadline - now).max(Duration::from_micros(100)))?;
             match self.stream.read(&mut chunk) {
                 Ok(0) => {
-                    let status = self.child.wait()?;
+                    let Some(child) = &mut self.child else {
+                        return Err(PilError::LinkClosed);
+                    };
+                    let status = child.wait()?;
                     self.exited = Some(status);
                     return Err(self.exited_error(status));
                 }
@@ -769,13 +887,86 @@ impl PilLink {
         }
     }
 
-    /// Stops QEMU; returns its log.
+    /// Stops QEMU (if this link started it); returns its log.
     pub fn shutdown(mut self) -> String {
-        if self.exited.is_none() {
-            let _ = self.child.kill();
-            self.exited = self.child.wait().ok();
+        if let (None, Some(child)) = (self.exited, &mut self.child) {
+            let _ = child.kill();
+            self.exited = child.wait().ok();
         }
         self.log_text()
+    }
+}
+
+/// QEMU running a firmware with its serial link on a pseudo-terminal (`-serial pty`): the
+/// device a hardware-in-the-loop link opens ([`PilLink::open_serial`]), so the termios path a
+/// board's serial adapter takes is tested against the emulated board. Killed, reaped and its
+/// directory removed when dropped.
+#[derive(Debug)]
+pub struct QemuPty {
+    child: Child,
+    pty: PathBuf,
+    dir: PathBuf,
+    log: PathBuf,
+}
+
+impl QemuPty {
+    /// Starts QEMU with `elf` (the schedule of `opts`: lockstep by default) and waits,
+    /// within `opts.boot_timeout`, for it to name its pty ("char device redirected to
+    /// /dev/pts/N").
+    pub fn spawn(elf: &Path, opts: &PilOptions) -> Result<Self, PilError> {
+        if !elf.is_file() {
+            return Err(PilError::ElfMissing(elf.to_path_buf()));
+        }
+        let dir = run_dir()?;
+        let log = dir.join("qemu.log");
+        let child = start_qemu(elf, opts, "pty", &log)?;
+        let mut q = Self {
+            child,
+            pty: PathBuf::new(),
+            dir,
+            log,
+        };
+        let deadline = Instant::now() + opts.boot_timeout;
+        loop {
+            let text = fs::read_to_string(&q.log).unwrap_or_default();
+            let mark = "char device redirected to ";
+            if let Some(at) = text.find(mark) {
+                let rest = &text[at + mark.len()..];
+                q.pty = PathBuf::from(rest.split_whitespace().next().unwrap_or_default());
+                return Ok(q);
+            }
+            if let Some(status) = q.child.try_wait()? {
+                return Err(PilError::FirmwareExited {
+                    status: status.to_string(),
+                    log: q.log.clone(),
+                    tail: tail(&text, 20),
+                });
+            }
+            if Instant::now() > deadline {
+                return Err(PilError::ConnectTimeout(opts.boot_timeout));
+            }
+            thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    /// The pty's device path.
+    pub fn path(&self) -> &Path {
+        &self.pty
+    }
+
+    /// QEMU's output so far (the firmware's semihosting log).
+    pub fn log_text(&self) -> String {
+        fs::read_to_string(&self.log).unwrap_or_default()
+    }
+}
+
+impl Drop for QemuPty {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
+            let _ = fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
@@ -797,12 +988,24 @@ impl PilFlightComputer {
         Self::spawn_with(elf, PilOptions::default())
     }
 
+    /// Flies a firmware on the serial device at `path` at `baud` (hardware in the loop,
+    /// [`PilLink::open_serial`]); the firmware must run the lockstep schedule (the `f405`
+    /// board's `lockstep` feature, or the `qemu` board).
+    pub fn open_serial(path: &Path, baud: u32, opts: PilOptions) -> Result<Self, PilError> {
+        let link = PilLink::open_serial(path, baud, &opts)?;
+        Ok(Self::around(link, opts))
+    }
+
     /// Starts the firmware at `elf` with `opts` (the schedule is forced to lockstep).
     pub fn spawn_with(elf: &Path, mut opts: PilOptions) -> Result<Self, PilError> {
         opts.schedule = FirmwareSchedule::Lockstep;
         let link = PilLink::spawn(elf, &opts)?;
+        Ok(Self::around(link, opts))
+    }
+
+    fn around(link: PilLink, opts: PilOptions) -> Self {
         let last_output = link.boot_frame().output;
-        Ok(Self {
+        Self {
             link,
             opts,
             next_seq: 1,
@@ -810,7 +1013,7 @@ impl PilFlightComputer {
             last_error: None,
             history: Vec::new(),
             steps: 0,
-        })
+        }
     }
 
     /// Makes the firmware fly `cfg` (before the first step: the firmware takes a new
