@@ -576,6 +576,12 @@ fn encode_frame<T: Serialize, const N: usize>(
     Ok(n + 1)
 }
 
+/// The first `n` bytes of `out`: the frame [`encode_frame`] wrote (`n` fits, as that
+/// function checked; `get` keeps a panic path out of callers that cannot see it).
+fn framed(out: &[u8], n: usize) -> Result<&[u8], WireError> {
+    out.get(..n).ok_or(WireError::BufferTooSmall)
+}
+
 /// Encodes any serialisable `body` as a frame of `kind` into `out`; returns the frame, ending
 /// in its `0x00`. The typed encoders below are this with the body their kind carries; this
 /// one lets a test or a tool build a frame whose body does not match its kind.
@@ -585,7 +591,7 @@ pub fn encode_message<'a, T: Serialize>(
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
     let n = encode_frame::<_, MAX_PAYLOAD_LEN>(kind, body, out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// Encodes a configuration write into `out` (at least [`MAX_FRAME_LEN`] bytes suffice);
@@ -595,13 +601,13 @@ pub fn encode_config_write<'a>(
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
     let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigWrite, cfg, out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// Encodes a configuration read into `out`; returns the frame, ending in its `0x00`.
 pub fn encode_config_read(out: &mut [u8]) -> Result<&[u8], WireError> {
     let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigRead, &(), out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// Encodes a configuration report into `out` (at least [`MAX_FRAME_LEN`] bytes suffice);
@@ -611,21 +617,21 @@ pub fn encode_config_report<'a>(
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
     let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigReport, r, out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// Encodes a measurement frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
 /// the frame, ending in its `0x00`.
 pub fn encode_uplink<'a>(msg: &Uplink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
     let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Measurement, msg, out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// Encodes a command frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns the
 /// frame, ending in its `0x00`.
 pub fn encode_downlink<'a>(msg: &Downlink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
     let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Command, msg, out)?;
-    Ok(&out[..n])
+    framed(out, n)
 }
 
 /// A frame that passed COBS, length, CRC and version checks: its kind and postcard body.

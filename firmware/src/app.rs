@@ -201,6 +201,19 @@ pub fn safe_frame(buf: &mut [u8; MAX_FRAME_LEN + 1]) -> Option<&[u8]> {
     buf.get(..=n)
 }
 
+/// Writes all of `frame` and flushes. Unlike embedded-io's `write_all`, which panics when a
+/// write returns `Ok(0)`, a write that takes nothing (or claims more than it was given) is
+/// an error here, for the caller to count: no panic path on the flight loop.
+fn write_frame<W: Write>(link: &mut W, mut frame: &[u8]) -> Result<(), ()> {
+    while !frame.is_empty() {
+        match link.write(frame) {
+            Ok(n) if n > 0 && n <= frame.len() => frame = &frame[n..],
+            _ => return Err(()),
+        }
+    }
+    link.flush().map_err(|_| ())
+}
+
 /// The application state: the controller and both ends of the link protocol.
 #[derive(Debug, Clone)]
 pub struct App {
@@ -345,10 +358,15 @@ impl App {
         let n = encode_downlink(&d, &mut self.buf).map(<[u8]>::len);
         self.encode_prev = C::now().wrapping_sub(t0);
         match n {
-            Ok(n) => {
+            Ok(n) if n <= self.buf.len() => {
                 self.last = d;
                 self.tx_seq = self.tx_seq.wrapping_add(1);
                 Some(&self.buf[..n])
+            }
+            // Never: the frame was written into this buffer. Counted, not sent.
+            Ok(_) => {
+                self.link.tx_errors = self.link.tx_errors.saturating_add(1);
+                None
             }
             Err(e) => {
                 self.link.count(e);
@@ -581,8 +599,7 @@ impl App {
     /// Writes the first `len` bytes of the frame buffer to the link; a failure is counted.
     fn send<B: Board>(&mut self, board: &mut B, len: usize) {
         let frame = &self.buf[..len.min(MAX_FRAME_LEN)];
-        let link = board.link();
-        if link.write_all(frame).and_then(|()| link.flush()).is_err() {
+        if write_frame(board.link(), frame).is_err() {
             self.link.tx_errors = self.link.tx_errors.saturating_add(1);
         }
     }
@@ -1098,6 +1115,43 @@ mod tests {
                 .iter()
                 .all(|e| !matches!(e, Event::Configured { .. }))
         );
+    }
+
+    /// A link whose write takes `per_call` bytes at most (0: none).
+    struct Stingy {
+        per_call: usize,
+        got: Vec<u8>,
+    }
+    impl embedded_io::ErrorType for Stingy {
+        type Error = core::convert::Infallible;
+    }
+    impl Write for Stingy {
+        fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+            let n = buf.len().min(self.per_call);
+            self.got.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_frame_is_written_whole_in_pieces_and_a_write_that_takes_nothing_is_an_error() {
+        let frame: Vec<u8> = (1..=200).collect();
+        let mut link = Stingy {
+            per_call: 7,
+            got: Vec::new(),
+        };
+        assert_eq!(write_frame(&mut link, &frame), Ok(()));
+        assert_eq!(link.got, frame);
+        // embedded-io's write_all would panic here; this returns an error to count.
+        let mut stuck = Stingy {
+            per_call: 0,
+            got: Vec::new(),
+        };
+        assert_eq!(write_frame(&mut stuck, &frame), Err(()));
+        assert_eq!(write_frame(&mut stuck, &[]), Ok(()), "nothing to write");
     }
 
     #[test]

@@ -7,7 +7,9 @@
 //! measurement frame's deserialisation and [`encode_downlink`](ibvs_core::wire::encode_downlink). Its panic handler calls a
 //! function that does not exist. It also runs the configuration path: a configuration frame's
 //! deserialisation, [`Controller::reconfigure`](ibvs_core::Controller::reconfigure), the
-//! configuration's id and the report's encoding. The release build (LTO, dead code removed) therefore links
+//! configuration's id and the report's encoding; and the flight application's whole loop
+//! (`App::run`: byte handling, framing, the configuration path, both schedules) on a board
+//! whose every answer is opaque. The release build (LTO, dead code removed) therefore links
 //! only if no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow
 //! check or an `unreachable!` that the optimiser could not prove dead would keep the panic
 //! handler, and with it the undefined symbol
@@ -20,9 +22,81 @@
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 
+/// The flight application itself (byte handling, framing, the configuration path, both
+/// schedules), the same source file the firmware builds.
+#[cfg(target_os = "none")]
+#[path = "../app.rs"]
+#[allow(dead_code)]
+mod app;
+
 #[cfg(target_os = "none")]
 mod target {
     use core::hint::black_box;
+
+    use super::app::{App, Board, Event, NoCounter, Schedule};
+    use embedded_io::{ErrorType, Read, ReadReady, Write};
+
+    /// A board whose every answer is opaque to the optimiser: any byte, any readiness, any
+    /// number of periods, any store outcome.
+    struct AnyBoard;
+
+    impl ErrorType for AnyBoard {
+        type Error = core::convert::Infallible;
+    }
+
+    impl Read for AnyBoard {
+        fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
+            for b in buf.iter_mut() {
+                *b = black_box(0);
+            }
+            Ok(black_box(buf.len()))
+        }
+    }
+
+    impl ReadReady for AnyBoard {
+        fn read_ready(&mut self) -> Result<bool, Self::Error> {
+            Ok(black_box(true))
+        }
+    }
+
+    impl Write for AnyBoard {
+        fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+            black_box(buf);
+            Ok(black_box(buf.len()))
+        }
+
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+    }
+
+    impl Board for AnyBoard {
+        type Link = Self;
+        type Counter = NoCounter;
+
+        fn link(&mut self) -> &mut Self {
+            self
+        }
+
+        fn take_periods(&mut self) -> u32 {
+            black_box(1)
+        }
+
+        fn take_rx_errors(&mut self) -> u32 {
+            black_box(0)
+        }
+
+        fn wait_for_event(&mut self) {}
+
+        fn log(&mut self, event: Event) {
+            black_box(event);
+        }
+
+        fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage {
+            black_box(cfg);
+            black_box(ConfigStorage::Unavailable)
+        }
+    }
 
     use cortex_m_rt::entry;
     use ibvs_core::wire::{
@@ -37,6 +111,17 @@ mod target {
     fn main() -> ! {
         let mut decoder = FrameDecoder::new();
         let mut buf = [0u8; MAX_FRAME_LEN];
+        // The application's loop: boot frame, then every byte and period, either schedule.
+        let schedule = if black_box(true) {
+            Schedule::Lockstep
+        } else {
+            Schedule::FreeRunning
+        };
+        if let Ok(app) = App::new(schedule, black_box(false), black_box(None)) {
+            if black_box(true) {
+                app.run(&mut AnyBoard);
+            }
+        }
         loop {
             // The controller: any configuration, any input.
             if let Ok(mut controller) = Controller::new(black_box(ControllerConfig::default())) {
