@@ -42,6 +42,10 @@ impl CostCounter for DwtCounter {
     fn now() -> u32 {
         cortex_m::peripheral::DWT::cycle_count()
     }
+    #[inline(always)]
+    fn uninterrupted<R>(f: impl FnOnce() -> R) -> R {
+        cortex_m::interrupt::free(|_| f())
+    }
 }
 
 /// The DWT cycle counter with the stack probe (the `bench` feature only: the flight build

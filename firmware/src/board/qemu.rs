@@ -61,6 +61,11 @@ impl CostCounter for Tim2Counter {
     }
 
     #[inline(always)]
+    fn uninterrupted<R>(f: impl FnOnce() -> R) -> R {
+        cortex_m::interrupt::free(|_| f())
+    }
+
+    #[inline(always)]
     fn stack_of<R>(f: impl FnOnce() -> R) -> (R, Option<u32>) {
         super::stack::probe(f)
     }

@@ -484,6 +484,10 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
             "step_instructions_bound",
             &["step_instructions_bound"][..],
         ),
+        // The codec's worst case over the workloads (repeatable since the decode is timed
+        // byte by byte with interrupts masked).
+        ("qemu", "decode_instructions", &["decode_instructions"][..]),
+        ("qemu", "encode_instructions", &["encode_instructions"][..]),
         ("qemu", "stack_bytes", &["stack_bytes"][..]),
         ("qemu", "flash_bytes", &["flash_bytes"][..]),
         ("f405", "flash_bytes", &["flash_bytes"][..]),
@@ -553,14 +557,21 @@ fn run(args: Args) -> Result<bool, Error> {
     } else {
         workloads()?
     };
-    for w in workloads {
+    // The shortest workload is replayed twice: every figure must be the same both times
+    // (exact instruction counts are the point of the emulated target).
+    let shortest = (0..workloads.len()).min_by_key(|&i| workloads[i].inputs.len());
+    let mut first_replay = None;
+    for (i, w) in workloads.iter().enumerate() {
         eprintln!(
             "target-bench: {} ({} steps): {}",
             w.name,
             w.inputs.len(),
             w.what
         );
-        let r = replay(&qemu, &w)?;
+        let r = replay(&qemu, w)?;
+        if Some(i) == shortest {
+            first_replay = Some((r.step.clone(), r.decode.clone(), r.encode.clone()));
+        }
         all_step.extend_from_slice(&r.step);
         all_decode.extend_from_slice(&r.decode);
         all_encode.extend_from_slice(&r.encode);
@@ -586,6 +597,21 @@ fn run(args: Args) -> Result<bool, Error> {
             "control_stack_bytes": r.control_stack,
             "firmware_stack_bytes": r.firmware_stack,
         }));
+    }
+    if let (Some(i), Some(first)) = (shortest, first_replay) {
+        let w = &workloads[i];
+        let again = replay(&qemu, w)?;
+        if (again.step, again.decode, again.encode) != first {
+            return Err(format!(
+                "the figures of workload {} differ between two replays of one ELF: not repeatable",
+                w.name
+            )
+            .into());
+        }
+        eprintln!(
+            "target-bench: {} replayed again: every step, decode and encode figure identical",
+            w.name
+        );
     }
     let qemu_sizes = elf::sizes(&qemu)?;
     let f405_sizes = elf::sizes(&f405)?;
@@ -674,6 +700,8 @@ mod tests {
             json!({
                 "step_instructions": step,
                 "step_instructions_bound": bound,
+                "decode_instructions": 4000,
+                "encode_instructions": 6000,
                 "stack_bytes": 276,
                 "flash_bytes": flash,
                 "ram_bytes": 704,
@@ -691,6 +719,8 @@ mod tests {
             "qemu": {
                 "step_instructions_max": 800,
                 "step_instructions_bound": 1100,
+                "decode_instructions": 4000,
+                "encode_instructions": 6000,
                 "stack_bytes": 276,
                 "flash_bytes": 60000,
             },
