@@ -600,14 +600,12 @@ pub fn encode_config_write<'a>(
     cfg: &ControllerConfig,
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
-    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigWrite, cfg, out)?;
-    framed(out, n)
+    encode_message(FrameKind::ConfigWrite, cfg, out)
 }
 
 /// Encodes a configuration read into `out`; returns the frame, ending in its `0x00`.
 pub fn encode_config_read(out: &mut [u8]) -> Result<&[u8], WireError> {
-    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigRead, &(), out)?;
-    framed(out, n)
+    encode_message(FrameKind::ConfigRead, &(), out)
 }
 
 /// Encodes a configuration report into `out` (at least [`MAX_FRAME_LEN`] bytes suffice);
@@ -616,8 +614,7 @@ pub fn encode_config_report<'a>(
     r: &ConfigReport,
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
-    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigReport, r, out)?;
-    framed(out, n)
+    encode_message(FrameKind::ConfigReport, r, out)
 }
 
 /// Encodes a measurement frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns

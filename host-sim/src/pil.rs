@@ -444,6 +444,24 @@ pub struct PilLink {
     last_rx_frame: Vec<u8>,
 }
 
+/// Checks that `elf` exists and makes a run directory for QEMU; the directory and the path of
+/// QEMU's log in it.
+fn qemu_run_dir(elf: &Path) -> Result<(PathBuf, PathBuf), PilError> {
+    if !elf.is_file() {
+        return Err(PilError::ElfMissing(elf.to_path_buf()));
+    }
+    let dir = run_dir()?;
+    let log = dir.join("qemu.log");
+    Ok((dir, log))
+}
+
+/// Removes a run directory, unless `IBVS_PIL_KEEP=1` asks to keep it.
+fn remove_run_dir(dir: &Path) {
+    if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
+        let _ = fs::remove_dir_all(dir);
+    }
+}
+
 /// Starts QEMU's netduinoplus2 with `elf`, its USART1 on the chardev `serial` (`unix:PATH`
 /// or `pty`), the semihosting command line of `opts` (its schedule and extra words), and
 /// QEMU's stdout and stderr (the firmware's semihosting log) into the file `log`.
@@ -477,21 +495,15 @@ impl Drop for PilLink {
             let _ = child.kill();
             let _ = child.wait();
         }
-        if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
-            let _ = fs::remove_dir_all(&self.dir);
-        }
+        remove_run_dir(&self.dir);
     }
 }
 
 impl PilLink {
     /// Starts QEMU with `elf` and waits for the firmware's boot frame.
     pub fn spawn(elf: &Path, opts: &PilOptions) -> Result<Self, PilError> {
-        if !elf.is_file() {
-            return Err(PilError::ElfMissing(elf.to_path_buf()));
-        }
-        let dir = run_dir()?;
+        let (dir, log) = qemu_run_dir(elf)?;
         let socket = dir.join("link.sock");
-        let log = dir.join("qemu.log");
         let listener = UnixListener::bind(&socket)?;
         listener.set_nonblocking(true)?;
         let serial = format!("unix:{}", socket.display());
@@ -914,11 +926,7 @@ impl QemuPty {
     /// within `opts.boot_timeout`, for it to name its pty ("char device redirected to
     /// /dev/pts/N").
     pub fn spawn(elf: &Path, opts: &PilOptions) -> Result<Self, PilError> {
-        if !elf.is_file() {
-            return Err(PilError::ElfMissing(elf.to_path_buf()));
-        }
-        let dir = run_dir()?;
-        let log = dir.join("qemu.log");
+        let (dir, log) = qemu_run_dir(elf)?;
         let child = start_qemu(elf, opts, "pty", &log)?;
         let mut q = Self {
             child,
@@ -964,9 +972,7 @@ impl Drop for QemuPty {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
-        if std::env::var(KEEP_ENV).as_deref() != Ok("1") {
-            let _ = fs::remove_dir_all(&self.dir);
-        }
+        remove_run_dir(&self.dir);
     }
 }
 
