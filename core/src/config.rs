@@ -8,6 +8,8 @@
 //! [`ControllerConfig::validate`]; the step relies on it (positive gains and limits,
 //! `min_closing <= max_closing`, trim inside the actuator limits).
 
+use core::borrow::Borrow;
+
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::ActuatorLimits;
@@ -86,22 +88,25 @@ pub enum ConfigProblem {
     Inconsistent,
 }
 
-/// A rejected configuration: the field and what is wrong with it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// A rejected configuration: the field, what is wrong with it and the rule it broke.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ConfigError {
-    /// Dotted path of the offending field.
+    /// Dotted path of the offending field (generated from the field access: [`RULES`]).
     pub field: &'static str,
     /// The problem.
     pub problem: ConfigProblem,
+    /// The rule broken, as in [`RULES`]: "finite, > 0", "finite, >= 0", "finite (every
+    /// element)", or a condition in the configuration's field names.
+    pub requirement: &'static str,
 }
 
 impl core::fmt::Display for ConfigError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(
             f,
-            "invalid controller configuration: {} is {:?}",
-            self.field, self.problem
+            "invalid controller configuration: {} is {:?} (requires {})",
+            self.field, self.problem, self.requirement
         )
     }
 }
@@ -155,28 +160,328 @@ impl Default for ControllerConfig {
     }
 }
 
+/// How a value must be, for [`RULES`] and the schema.
+const POSITIVE: &str = "finite, > 0";
+const NON_NEGATIVE: &str = "finite, >= 0";
+const FINITE: &str = "finite (every element)";
+
+/// `v` is finite and positive (`positive`) or not negative.
 fn check(field: &'static str, v: f32, positive: bool) -> Result<(), ConfigError> {
-    let problem = if !v.is_finite() {
-        ConfigProblem::NotFinite
+    let (problem, requirement) = if !v.is_finite() {
+        (
+            ConfigProblem::NotFinite,
+            if positive { POSITIVE } else { NON_NEGATIVE },
+        )
     } else if positive && v <= 0.0 {
-        ConfigProblem::NotPositive
+        (ConfigProblem::NotPositive, POSITIVE)
     } else if v < 0.0 {
-        ConfigProblem::Negative
+        (ConfigProblem::Negative, NON_NEGATIVE)
     } else {
         return Ok(());
     };
-    Err(ConfigError { field, problem })
+    Err(ConfigError {
+        field,
+        problem,
+        requirement,
+    })
 }
 
-fn require(field: &'static str, ok: bool) -> Result<(), ConfigError> {
+/// `ok`, else `field` is [`ConfigProblem::Inconsistent`] with `requirement`.
+fn require(field: &'static str, requirement: &'static str, ok: bool) -> Result<(), ConfigError> {
     if ok {
         Ok(())
     } else {
         Err(ConfigError {
             field,
             problem: ConfigProblem::Inconsistent,
+            requirement,
         })
     }
+}
+
+/// A number, by value or by reference (the rules' bindings are references to the
+/// configuration's fields).
+fn num(v: impl Borrow<f32>) -> f32 {
+    *v.borrow()
+}
+
+/// Every element of an array is finite.
+fn all_finite<const N: usize>(v: impl Borrow<[f32; N]>) -> bool {
+    v.borrow().iter().all(|x| x.is_finite())
+}
+
+/// The rules of the configuration, written once: each names its field by the same tokens
+/// that read it, so the path in a [`ConfigError`] and in [`RULES`] is generated from the
+/// field access and cannot drift from the struct (a renamed field fails to compile).
+///
+/// `let PATTERN = CONFIG;` binds the top-level fields; then one rule per line:
+/// - `positive a.b;` finite and > 0 ([`ConfigProblem::NotFinite`] / [`ConfigProblem::NotPositive`]);
+/// - `non_negative a.b;` finite and >= 0 ([`ConfigProblem::NotFinite`] / [`ConfigProblem::Negative`]);
+/// - `finite a.b;` every element of an array finite ([`ConfigProblem::NotFinite`]);
+/// - `holds a.b if CONDITION;` [`ConfigProblem::Inconsistent`] unless the condition holds;
+///   the condition's text is the rule's requirement.
+///
+/// It generates [`RULES`] and `check_rules`, which checks them in order and returns the
+/// first broken one.
+macro_rules! config_rules {
+    (
+        let $pat:pat = $cfg:ident;
+        $( $kind:ident $first:ident $(. $rest:ident)* $(if $cond:expr)? ; )*
+    ) => {
+        /// Every rule [`ControllerConfig::validate`] checks, in order: the field (its dotted
+        /// path, generated from the field access) and what it requires (for the schema,
+        /// `host-sim config schema`).
+        pub const RULES: &[Rule] = &[$(
+            Rule {
+                field: concat!(stringify!($first) $(, ".", stringify!($rest))*),
+                requirement: config_rules!(@requirement $kind $(, $cond)?),
+            },
+        )*];
+
+        fn check_rules($cfg: &ControllerConfig) -> Result<(), ConfigError> {
+            let $pat = $cfg;
+            $(
+                config_rules!(
+                    @check $kind,
+                    concat!(stringify!($first) $(, ".", stringify!($rest))*),
+                    ($first $(. $rest)*)
+                    $(, $cond)?
+                )?;
+            )*
+            Ok(())
+        }
+    };
+    (@requirement positive) => { POSITIVE };
+    (@requirement non_negative) => { NON_NEGATIVE };
+    (@requirement finite) => { FINITE };
+    (@requirement holds, $cond:expr) => { stringify!($cond) };
+    (@check positive, $path:expr, ($($v:tt)*)) => { check($path, num($($v)*), true) };
+    (@check non_negative, $path:expr, ($($v:tt)*)) => { check($path, num($($v)*), false) };
+    (@check finite, $path:expr, ($($v:tt)*)) => {
+        if all_finite($($v)*) {
+            Ok(())
+        } else {
+            Err(ConfigError {
+                field: $path,
+                problem: ConfigProblem::NotFinite,
+                requirement: FINITE,
+            })
+        }
+    };
+    (@check holds, $path:expr, ($($v:tt)*), $cond:expr) => {
+        require($path, stringify!($cond), $cond)
+    };
+}
+
+/// One rule of the configuration ([`RULES`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rule {
+    /// Dotted path of the field the rule names (as in [`ConfigError::field`]).
+    pub field: &'static str,
+    /// What it requires: "finite, > 0", "finite, >= 0", "finite (every element)", or the
+    /// condition, in the configuration's field names.
+    pub requirement: &'static str,
+}
+
+/// The image point is finite and inside the field of view.
+fn in_view(point: [f32; 2], m: &MeasurementLimits) -> bool {
+    point.iter().all(|v| v.is_finite())
+        && libm::fabsf(point[0]) < m.half_fov_x
+        && libm::fabsf(point[1]) < m.half_fov_y
+}
+
+/// The largest trim pitch or angle of attack over the gain schedule's nodes, rad
+/// (interpolated trims lie between the nodes').
+pub fn largest_schedule_trim_angle_rad() -> f32 {
+    let mut trim = 0.0;
+    for row in &gains::SCHEDULE {
+        for d in row {
+            trim = max_to(trim, libm::fabsf(d.trim.theta_rad));
+            trim = max_to(trim, libm::fabsf(d.trim.alpha_rad));
+        }
+    }
+    trim
+}
+
+/// Every channel's limits are finite with min < max.
+fn ordered(a: &ActuatorLimits) -> bool {
+    a.min
+        .iter()
+        .zip(a.max)
+        .all(|(lo, hi)| lo.is_finite() && hi.is_finite() && *lo < hi)
+}
+
+/// Every channel's trim command lies inside its limits.
+fn holds_trim(a: &ActuatorLimits) -> bool {
+    let trim = trim_command();
+    a.min
+        .iter()
+        .zip(a.max)
+        .zip(trim)
+        .all(|((lo, hi), t)| *lo <= t && t <= hi)
+}
+
+/// One hour, s: the longest dwell, timeout or limit a configuration may give.
+pub const HOUR_S: f32 = 3600.0;
+/// One day, s: the longest sortie budget.
+pub const DAY_S: f32 = 86_400.0;
+
+config_rules! {
+    let ControllerConfig {
+        procedure: _,
+        law: _,
+        ibvs,
+        pbvs,
+        velocity_limits,
+        camera,
+        probe_tip_body_m,
+        measurement,
+        nav_envelope,
+        modes,
+        actuators,
+        integrator_limit_m,
+        nav_latency_steps,
+        refuelling,
+        estimator,
+    } = cfg;
+    positive ibvs.k1_mps;
+    positive ibvs.k2_mps;
+    positive ibvs.k3_per_s;
+    non_negative ibvs.k4_mps;
+    non_negative ibvs.k5_mps;
+    holds ibvs.max_cartesian_gain_per_s if ibvs.max_cartesian_gain_per_s > 0.0;
+    positive pbvs.k_lat_per_s;
+    positive pbvs.k_vert_per_s;
+    positive pbvs.k_close_per_s;
+    non_negative pbvs.k_slow_lat_per_s;
+    non_negative pbvs.k_slow_vert_per_s;
+    positive velocity_limits.min_closing_mps;
+    positive velocity_limits.max_closing_mps;
+    positive velocity_limits.max_lateral_mps;
+    positive velocity_limits.max_vertical_mps;
+    positive velocity_limits.max_accel_mps2;
+    holds velocity_limits.min_closing_mps
+        if velocity_limits.min_closing_mps <= velocity_limits.max_closing_mps;
+    finite camera.position_body_m;
+    finite probe_tip_body_m;
+    holds camera.pitch_down_rad if libm::fabsf(camera.pitch_down_rad) <= SIN_COS_MAX_RAD;
+    positive measurement.max_depth_m;
+    holds measurement.max_depth_m if measurement.max_depth_m <= 1000.0;
+    positive measurement.half_fov_x;
+    positive measurement.half_fov_y;
+    holds ibvs.convergence_point if in_view(ibvs.convergence_point, measurement);
+    positive nav_envelope.max_angle_rad;
+    positive nav_envelope.max_bank_rad;
+    positive nav_envelope.max_sideslip_rad;
+    positive nav_envelope.max_speed_mps;
+    positive nav_envelope.max_rate_radps;
+    // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range, at
+    // every trim of the gain schedule.
+    holds nav_envelope.max_angle_rad
+        if nav_envelope.max_angle_rad + largest_schedule_trim_angle_rad() <= SIN_COS_MAX_RAD;
+    holds nav_envelope.max_bank_rad if nav_envelope.max_bank_rad <= SIN_COS_MAX_RAD;
+    holds nav_envelope.max_sideslip_rad if nav_envelope.max_sideslip_rad <= SIN_COS_MAX_RAD;
+    positive modes.terminal_depth_m;
+    positive modes.terminal_max_offset_m;
+    positive modes.terminal_overshoot_m;
+    positive modes.terminal_timeout_s;
+    holds modes.terminal_timeout_s if modes.terminal_timeout_s < HOUR_S;
+    non_negative modes.breakaway_aft_mps;
+    non_negative modes.breakaway_down_mps;
+    non_negative modes.breakaway_throttle_cut;
+    holds modes.breakaway_down_mps
+        if modes.breakaway_down_mps <= velocity_limits.max_vertical_mps;
+    positive modes.overspeed_mps;
+    positive modes.breakaway_accel_mps2;
+    positive modes.terminal_accel_mps2;
+    positive modes.drogue_rate_filter;
+    holds modes.drogue_rate_filter if modes.drogue_rate_filter <= 1.0;
+    holds modes.overspeed_mps if modes.overspeed_mps > velocity_limits.max_closing_mps;
+    holds modes.breakaway_aft_mps if modes.breakaway_aft_mps <= velocity_limits.max_closing_mps;
+    holds actuators.min if ordered(actuators);
+    holds actuators.max if holds_trim(actuators);
+    positive integrator_limit_m;
+    holds nav_latency_steps if *nav_latency_steps <= MAX_NAV_LATENCY_STEPS;
+    positive estimator.drogue_time_constant_s;
+    positive estimator.drogue_accel_psd_m2ps3;
+    positive estimator.drogue_fwd_time_constant_s;
+    positive estimator.offset_noise_m;
+    positive estimator.depth_noise_m;
+    positive estimator.initial_velocity_sigma_mps;
+    positive estimator.gate_sigmas;
+    positive estimator.tip_sight_tolerance;
+    positive estimator.tip_sight_filter;
+    positive estimator.mean_time_constant_s;
+    positive estimator.activity_time_constant_s;
+    non_negative estimator.drogue_fwd_accel_psd_m2ps3;
+    non_negative estimator.offset_noise_per_m;
+    non_negative estimator.depth_noise_per_m2;
+    holds estimator.tip_sight_filter if estimator.tip_sight_filter <= 1.0;
+    // Time constants of at least a control period (the discrete models' poles stay away
+    // from zero and the averages from a single step).
+    holds estimator.drogue_time_constant_s
+        if estimator.drogue_time_constant_s >= gains::CONTROL_PERIOD_S;
+    holds estimator.drogue_fwd_time_constant_s
+        if estimator.drogue_fwd_time_constant_s >= gains::CONTROL_PERIOD_S;
+    holds estimator.activity_time_constant_s
+        if estimator.activity_time_constant_s >= gains::CONTROL_PERIOD_S;
+    holds estimator.mean_time_constant_s
+        if estimator.mean_time_constant_s >= gains::CONTROL_PERIOD_S;
+    positive refuelling.station_depth_m;
+    positive refuelling.station_gain_per_s;
+    positive refuelling.station_max_speed_mps;
+    positive refuelling.station_offset_tol_m;
+    positive refuelling.station_depth_tol_m;
+    positive refuelling.station_overrun_m;
+    positive refuelling.station_drogue_speed_tol_mps;
+    positive refuelling.station_relative_speed_tol_mps;
+    positive refuelling.track_gain_per_s;
+    positive refuelling.max_correction_mps;
+    positive refuelling.track_accel_mps2;
+    positive refuelling.contact_speed_mps;
+    positive refuelling.abort_offset_m;
+    positive refuelling.commit_depth_m;
+    positive refuelling.gate_radius_m;
+    positive refuelling.late_gate_radius_m;
+    positive refuelling.late_gate_final_radius_m;
+    positive refuelling.late_gate_taper_m;
+    positive refuelling.gate_max_horizon_s;
+    positive refuelling.capture_timeout_s;
+    positive refuelling.capture_min_time_to_go_s;
+    positive refuelling.overshoot_m;
+    positive refuelling.missed_aft_mps;
+    positive refuelling.missed_clear_s;
+    positive refuelling.missed_accel_mps2;
+    positive refuelling.reacquire_limit_s;
+    positive refuelling.sortie_budget_s;
+    non_negative refuelling.station_dwell_s;
+    non_negative refuelling.feedforward_lead_s;
+    non_negative refuelling.feedforward_gain;
+    non_negative refuelling.gate_sigmas;
+    non_negative refuelling.missed_down_mps;
+    holds refuelling.feedforward_lead_s if refuelling.feedforward_lead_s <= 5.0;
+    holds refuelling.gate_max_horizon_s
+        if refuelling.gate_max_horizon_s <= 1.5 * estimator.drogue_time_constant_s;
+    holds refuelling.contact_speed_mps
+        if refuelling.contact_speed_mps <= velocity_limits.max_closing_mps;
+    holds refuelling.missed_aft_mps
+        if refuelling.missed_aft_mps <= velocity_limits.max_closing_mps;
+    holds refuelling.missed_down_mps
+        if refuelling.missed_down_mps <= velocity_limits.max_vertical_mps;
+    holds refuelling.late_gate_final_radius_m
+        if refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m;
+    holds refuelling.commit_depth_m if refuelling.commit_depth_m < refuelling.station_depth_m;
+    holds refuelling.station_overrun_m
+        if refuelling.station_depth_m - refuelling.station_overrun_m > refuelling.commit_depth_m;
+    holds refuelling.station_overrun_m
+        if refuelling.station_overrun_m > refuelling.station_depth_tol_m;
+    holds refuelling.max_attempts if refuelling.max_attempts >= 1;
+    holds refuelling.feedforward_gain if refuelling.feedforward_gain <= 1.0;
+    holds refuelling.station_dwell_s if refuelling.station_dwell_s < HOUR_S;
+    holds refuelling.capture_timeout_s if refuelling.capture_timeout_s < HOUR_S;
+    holds refuelling.missed_clear_s if refuelling.missed_clear_s < HOUR_S;
+    holds refuelling.reacquire_limit_s if refuelling.reacquire_limit_s < HOUR_S;
+    holds refuelling.sortie_budget_s if refuelling.sortie_budget_s < DAY_S;
 }
 
 impl ControllerConfig {
@@ -206,329 +511,9 @@ impl ControllerConfig {
         }
     }
 
-    /// Checks every value; the first problem found is returned.
+    /// Checks every value against [`RULES`], in order; the first rule broken is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let g = &self.ibvs;
-        check("ibvs.k1_mps", g.k1_mps, true)?;
-        check("ibvs.k2_mps", g.k2_mps, true)?;
-        check("ibvs.k3_per_s", g.k3_per_s, true)?;
-        check("ibvs.k4_mps", g.k4_mps, false)?;
-        check("ibvs.k5_mps", g.k5_mps, false)?;
-        require(
-            "ibvs.max_cartesian_gain_per_s (positive; infinity allowed)",
-            g.max_cartesian_gain_per_s > 0.0,
-        )?;
-        for v in g.convergence_point {
-            require(
-                "ibvs.convergence_point (finite, inside the field of view)",
-                v.is_finite(),
-            )?;
-        }
-        require(
-            "ibvs.convergence_point (finite, inside the field of view)",
-            libm::fabsf(g.convergence_point[0]) < self.measurement.half_fov_x
-                && libm::fabsf(g.convergence_point[1]) < self.measurement.half_fov_y,
-        )?;
-        let p = &self.pbvs;
-        check("pbvs.k_lat_per_s", p.k_lat_per_s, true)?;
-        check("pbvs.k_vert_per_s", p.k_vert_per_s, true)?;
-        check("pbvs.k_close_per_s", p.k_close_per_s, true)?;
-        check("pbvs.k_slow_lat_per_s", p.k_slow_lat_per_s, false)?;
-        check("pbvs.k_slow_vert_per_s", p.k_slow_vert_per_s, false)?;
-        let l = &self.velocity_limits;
-        check("velocity_limits.min_closing_mps", l.min_closing_mps, true)?;
-        check("velocity_limits.max_closing_mps", l.max_closing_mps, true)?;
-        check("velocity_limits.max_lateral_mps", l.max_lateral_mps, true)?;
-        check("velocity_limits.max_vertical_mps", l.max_vertical_mps, true)?;
-        check("velocity_limits.max_accel_mps2", l.max_accel_mps2, true)?;
-        require(
-            "velocity_limits.min_closing_mps (<= max_closing_mps)",
-            l.min_closing_mps <= l.max_closing_mps,
-        )?;
-        for v in self
-            .camera
-            .position_body_m
-            .into_iter()
-            .chain(self.probe_tip_body_m)
-        {
-            require(
-                "camera.position_body_m / probe_tip_body_m (finite)",
-                v.is_finite(),
-            )?;
-        }
-        require(
-            "camera.pitch_down_rad (finite, at most 0.8 rad either way)",
-            libm::fabsf(self.camera.pitch_down_rad) <= SIN_COS_MAX_RAD,
-        )?;
-        let m = &self.measurement;
-        check("measurement.max_depth_m", m.max_depth_m, true)?;
-        require(
-            "measurement.max_depth_m (<= 1000 m)",
-            m.max_depth_m <= 1000.0,
-        )?;
-        check("measurement.half_fov_x", m.half_fov_x, true)?;
-        check("measurement.half_fov_y", m.half_fov_y, true)?;
-        let n = &self.nav_envelope;
-        check("nav_envelope.max_angle_rad", n.max_angle_rad, true)?;
-        check("nav_envelope.max_bank_rad", n.max_bank_rad, true)?;
-        check("nav_envelope.max_sideslip_rad", n.max_sideslip_rad, true)?;
-        check("nav_envelope.max_speed_mps", n.max_speed_mps, true)?;
-        check("nav_envelope.max_rate_radps", n.max_rate_radps, true)?;
-        // Every angle of the step's trigonometry (`num::sin_cos`) stays within its range, at
-        // every trim of the gain schedule (interpolated trims lie between the nodes').
-        let mut trim = 0.0;
-        for row in &gains::SCHEDULE {
-            for d in row {
-                trim = max_to(trim, libm::fabsf(d.trim.theta_rad));
-                trim = max_to(trim, libm::fabsf(d.trim.alpha_rad));
-            }
-        }
-        require(
-            "nav_envelope.max_angle_rad (plus the largest trim pitch and angle of attack, <= 0.8 rad)",
-            n.max_angle_rad + trim <= SIN_COS_MAX_RAD,
-        )?;
-        require(
-            "nav_envelope.max_bank_rad / max_sideslip_rad (<= 0.8 rad)",
-            n.max_bank_rad <= SIN_COS_MAX_RAD && n.max_sideslip_rad <= SIN_COS_MAX_RAD,
-        )?;
-        let md = &self.modes;
-        check("modes.terminal_depth_m", md.terminal_depth_m, true)?;
-        check(
-            "modes.terminal_max_offset_m",
-            md.terminal_max_offset_m,
-            true,
-        )?;
-        check("modes.terminal_overshoot_m", md.terminal_overshoot_m, true)?;
-        check("modes.terminal_timeout_s", md.terminal_timeout_s, true)?;
-        require(
-            "modes.terminal_timeout_s (< 1 hour)",
-            md.terminal_timeout_s < 3600.0,
-        )?;
-        check("modes.breakaway_aft_mps", md.breakaway_aft_mps, false)?;
-        check("modes.breakaway_down_mps", md.breakaway_down_mps, false)?;
-        check(
-            "modes.breakaway_throttle_cut",
-            md.breakaway_throttle_cut,
-            false,
-        )?;
-        require(
-            "modes.breakaway_down_mps (<= velocity_limits.max_vertical_mps)",
-            md.breakaway_down_mps <= l.max_vertical_mps,
-        )?;
-        check("modes.overspeed_mps", md.overspeed_mps, true)?;
-        check("modes.breakaway_accel_mps2", md.breakaway_accel_mps2, true)?;
-        check("modes.terminal_accel_mps2", md.terminal_accel_mps2, true)?;
-        check("modes.drogue_rate_filter", md.drogue_rate_filter, true)?;
-        require(
-            "modes.drogue_rate_filter (<= 1)",
-            md.drogue_rate_filter <= 1.0,
-        )?;
-        require(
-            "modes.overspeed_mps (> velocity_limits.max_closing_mps)",
-            md.overspeed_mps > l.max_closing_mps,
-        )?;
-        require(
-            "modes.breakaway_aft_mps (<= velocity_limits.max_closing_mps)",
-            md.breakaway_aft_mps <= l.max_closing_mps,
-        )?;
-        let a = &self.actuators;
-        let trim = trim_command();
-        for ((lo, hi), t) in a.min.iter().zip(a.max).zip(trim) {
-            require(
-                "actuators (finite, min < max)",
-                lo.is_finite() && hi.is_finite() && *lo < hi,
-            )?;
-            require("actuators (trim inside the limits)", *lo <= t && t <= hi)?;
-        }
-        check("integrator_limit_m", self.integrator_limit_m, true)?;
-        require(
-            "nav_latency_steps (at most predictor::MAX_NAV_LATENCY_STEPS)",
-            self.nav_latency_steps <= MAX_NAV_LATENCY_STEPS,
-        )?;
-        self.validate_refuelling()?;
-        self.validate_estimator()
-    }
-
-    fn validate_refuelling(&self) -> Result<(), ConfigError> {
-        let r = &self.refuelling;
-        let l = &self.velocity_limits;
-        for (field, v) in [
-            ("refuelling.station_depth_m", r.station_depth_m),
-            ("refuelling.station_gain_per_s", r.station_gain_per_s),
-            ("refuelling.station_max_speed_mps", r.station_max_speed_mps),
-            ("refuelling.station_offset_tol_m", r.station_offset_tol_m),
-            ("refuelling.station_depth_tol_m", r.station_depth_tol_m),
-            ("refuelling.station_overrun_m", r.station_overrun_m),
-            (
-                "refuelling.station_drogue_speed_tol_mps",
-                r.station_drogue_speed_tol_mps,
-            ),
-            (
-                "refuelling.station_relative_speed_tol_mps",
-                r.station_relative_speed_tol_mps,
-            ),
-            ("refuelling.track_gain_per_s", r.track_gain_per_s),
-            ("refuelling.max_correction_mps", r.max_correction_mps),
-            ("refuelling.track_accel_mps2", r.track_accel_mps2),
-            ("refuelling.contact_speed_mps", r.contact_speed_mps),
-            ("refuelling.abort_offset_m", r.abort_offset_m),
-            ("refuelling.commit_depth_m", r.commit_depth_m),
-            ("refuelling.gate_radius_m", r.gate_radius_m),
-            ("refuelling.late_gate_radius_m", r.late_gate_radius_m),
-            (
-                "refuelling.late_gate_final_radius_m",
-                r.late_gate_final_radius_m,
-            ),
-            ("refuelling.late_gate_taper_m", r.late_gate_taper_m),
-            ("refuelling.gate_max_horizon_s", r.gate_max_horizon_s),
-            ("refuelling.capture_timeout_s", r.capture_timeout_s),
-            (
-                "refuelling.capture_min_time_to_go_s",
-                r.capture_min_time_to_go_s,
-            ),
-            ("refuelling.overshoot_m", r.overshoot_m),
-            ("refuelling.missed_aft_mps", r.missed_aft_mps),
-            ("refuelling.missed_clear_s", r.missed_clear_s),
-            ("refuelling.missed_accel_mps2", r.missed_accel_mps2),
-            ("refuelling.reacquire_limit_s", r.reacquire_limit_s),
-            ("refuelling.sortie_budget_s", r.sortie_budget_s),
-        ] {
-            check(field, v, true)?;
-        }
-        for (field, v) in [
-            ("refuelling.station_dwell_s", r.station_dwell_s),
-            ("refuelling.feedforward_lead_s", r.feedforward_lead_s),
-            ("refuelling.feedforward_gain", r.feedforward_gain),
-            ("refuelling.gate_sigmas", r.gate_sigmas),
-            ("refuelling.missed_down_mps", r.missed_down_mps),
-        ] {
-            check(field, v, false)?;
-        }
-        require(
-            "refuelling.feedforward_lead_s (<= 5 s)",
-            r.feedforward_lead_s <= 5.0,
-        )?;
-        require(
-            "refuelling.gate_max_horizon_s (<= 1.5 x estimator.drogue_time_constant_s)",
-            r.gate_max_horizon_s <= 1.5 * self.estimator.drogue_time_constant_s,
-        )?;
-        require(
-            "refuelling.contact_speed_mps (<= velocity_limits.max_closing_mps)",
-            r.contact_speed_mps <= l.max_closing_mps,
-        )?;
-        require(
-            "refuelling.missed_aft_mps (<= velocity_limits.max_closing_mps)",
-            r.missed_aft_mps <= l.max_closing_mps,
-        )?;
-        require(
-            "refuelling.missed_down_mps (<= velocity_limits.max_vertical_mps)",
-            r.missed_down_mps <= l.max_vertical_mps,
-        )?;
-        require(
-            "refuelling.late_gate_final_radius_m (<= late_gate_radius_m)",
-            r.late_gate_final_radius_m <= r.late_gate_radius_m,
-        )?;
-        require(
-            "refuelling.commit_depth_m (< station_depth_m)",
-            r.commit_depth_m < r.station_depth_m,
-        )?;
-        require(
-            "refuelling.station_overrun_m (station_depth_m - station_overrun_m > commit_depth_m)",
-            r.station_depth_m - r.station_overrun_m > r.commit_depth_m,
-        )?;
-        require(
-            "refuelling.station_overrun_m (> station_depth_tol_m)",
-            r.station_overrun_m > r.station_depth_tol_m,
-        )?;
-        require("refuelling.max_attempts (>= 1)", r.max_attempts >= 1)?;
-        require(
-            "refuelling.feedforward_gain (<= 1)",
-            r.feedforward_gain <= 1.0,
-        )?;
-        for (field, t) in [
-            ("refuelling.station_dwell_s (< 1 hour)", r.station_dwell_s),
-            (
-                "refuelling.capture_timeout_s (< 1 hour)",
-                r.capture_timeout_s,
-            ),
-            ("refuelling.missed_clear_s (< 1 hour)", r.missed_clear_s),
-            (
-                "refuelling.reacquire_limit_s (< 1 hour)",
-                r.reacquire_limit_s,
-            ),
-            (
-                "refuelling.sortie_budget_s (< 1 day)",
-                r.sortie_budget_s / 24.0,
-            ),
-        ] {
-            require(field, t < 3600.0)?;
-        }
-        Ok(())
-    }
-
-    fn validate_estimator(&self) -> Result<(), ConfigError> {
-        let e = &self.estimator;
-        for (field, v) in [
-            ("estimator.drogue_time_constant_s", e.drogue_time_constant_s),
-            ("estimator.drogue_accel_psd_m2ps3", e.drogue_accel_psd_m2ps3),
-            (
-                "estimator.drogue_fwd_time_constant_s",
-                e.drogue_fwd_time_constant_s,
-            ),
-            ("estimator.offset_noise_m", e.offset_noise_m),
-            ("estimator.depth_noise_m", e.depth_noise_m),
-            (
-                "estimator.initial_velocity_sigma_mps",
-                e.initial_velocity_sigma_mps,
-            ),
-            ("estimator.gate_sigmas", e.gate_sigmas),
-            ("estimator.tip_sight_tolerance", e.tip_sight_tolerance),
-            ("estimator.tip_sight_filter", e.tip_sight_filter),
-            ("estimator.mean_time_constant_s", e.mean_time_constant_s),
-            (
-                "estimator.activity_time_constant_s",
-                e.activity_time_constant_s,
-            ),
-        ] {
-            check(field, v, true)?;
-        }
-        for (field, v) in [
-            (
-                "estimator.drogue_fwd_accel_psd_m2ps3",
-                e.drogue_fwd_accel_psd_m2ps3,
-            ),
-            ("estimator.offset_noise_per_m", e.offset_noise_per_m),
-            ("estimator.depth_noise_per_m2", e.depth_noise_per_m2),
-        ] {
-            check(field, v, false)?;
-        }
-        require(
-            "estimator.tip_sight_filter (<= 1)",
-            e.tip_sight_filter <= 1.0,
-        )?;
-        // Time constants of at least a control period (the discrete models' poles stay away
-        // from zero and the averages from a single step).
-        for (field, t) in [
-            (
-                "estimator.drogue_time_constant_s (>= the control period)",
-                e.drogue_time_constant_s,
-            ),
-            (
-                "estimator.drogue_fwd_time_constant_s (>= the control period)",
-                e.drogue_fwd_time_constant_s,
-            ),
-            (
-                "estimator.activity_time_constant_s (>= the control period)",
-                e.activity_time_constant_s,
-            ),
-            (
-                "estimator.mean_time_constant_s (>= the control period)",
-                e.mean_time_constant_s,
-            ),
-        ] {
-            require(field, t >= gains::CONTROL_PERIOD_S)?;
-        }
-        Ok(())
+        check_rules(self)
     }
 }
 
@@ -542,90 +527,152 @@ pub fn trim_command() -> [f32; 4] {
 mod tests {
     use super::*;
 
-    #[test]
-    fn default_is_valid() {
-        assert_eq!(ControllerConfig::default().validate(), Ok(()));
+    /// The field, problem and requirement of `edit`'s rejection (`None`: accepted).
+    fn rejection(
+        edit: impl FnOnce(&mut ControllerConfig),
+    ) -> Option<(&'static str, ConfigProblem, &'static str)> {
+        let mut c = ControllerConfig::default();
+        edit(&mut c);
+        c.validate()
+            .err()
+            .map(|e| (e.field, e.problem, e.requirement))
     }
 
     #[test]
-    fn names_the_bad_field() {
-        let mut c = ControllerConfig::default();
-        c.ibvs.k3_per_s = 0.0;
+    fn default_and_paper_are_valid() {
+        assert_eq!(ControllerConfig::default().validate(), Ok(()));
+        assert_eq!(ControllerConfig::paper().validate(), Ok(()));
+    }
+
+    #[test]
+    fn names_the_bad_field_its_problem_and_the_rule() {
+        use ConfigProblem::*;
         assert_eq!(
-            c.validate(),
-            Err(ConfigError {
-                field: "ibvs.k3_per_s",
-                problem: ConfigProblem::NotPositive
-            })
+            rejection(|c| c.ibvs.k3_per_s = 0.0),
+            Some(("ibvs.k3_per_s", NotPositive, "finite, > 0"))
         );
-        let mut c = ControllerConfig::default();
-        c.pbvs.k_slow_lat_per_s = f32::NAN;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::NotFinite)
+            rejection(|c| c.pbvs.k_slow_lat_per_s = f32::NAN),
+            Some(("pbvs.k_slow_lat_per_s", NotFinite, "finite, >= 0"))
         );
-        let mut c = ControllerConfig::default();
-        c.velocity_limits.min_closing_mps = 5.0;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::Inconsistent)
+            rejection(|c| c.velocity_limits.min_closing_mps = 5.0),
+            Some((
+                "velocity_limits.min_closing_mps",
+                Inconsistent,
+                "velocity_limits.min_closing_mps <= velocity_limits.max_closing_mps"
+            ))
         );
-        let mut c = ControllerConfig::default();
-        c.actuators.max[1] = 0.01;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::Inconsistent)
+            rejection(|c| c.actuators.max[1] = 0.01),
+            Some(("actuators.max", Inconsistent, "holds_trim(actuators)"))
         );
-        let mut c = ControllerConfig::default();
-        c.modes.breakaway_down_mps = c.velocity_limits.max_vertical_mps + 0.1;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::Inconsistent)
+            rejection(|c| c.actuators.min[0] = f32::NAN),
+            Some(("actuators.min", Inconsistent, "ordered(actuators)"))
         );
-        let mut c = ControllerConfig::default();
-        c.measurement.max_depth_m = f32::MAX;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::Inconsistent)
+            rejection(|c| c.modes.breakaway_down_mps = c.velocity_limits.max_vertical_mps + 0.1)
+                .map(|r| (r.0, r.1)),
+            Some(("modes.breakaway_down_mps", Inconsistent))
         );
-        let mut c = ControllerConfig::default();
-        c.modes.terminal_accel_mps2 = 0.0;
         assert_eq!(
-            c.validate(),
-            Err(ConfigError {
-                field: "modes.terminal_accel_mps2",
-                problem: ConfigProblem::NotPositive
-            })
+            rejection(|c| c.measurement.max_depth_m = f32::MAX),
+            Some((
+                "measurement.max_depth_m",
+                Inconsistent,
+                "measurement.max_depth_m <= 1000.0"
+            ))
         );
-        let mut c = ControllerConfig::default();
-        c.modes.drogue_rate_filter = f32::INFINITY;
         assert_eq!(
-            c.validate(),
-            Err(ConfigError {
-                field: "modes.drogue_rate_filter",
-                problem: ConfigProblem::NotFinite
-            })
+            rejection(|c| c.modes.terminal_accel_mps2 = 0.0),
+            Some(("modes.terminal_accel_mps2", NotPositive, "finite, > 0"))
         );
-        c.modes.drogue_rate_filter = 0.0;
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::NotPositive)
+            rejection(|c| c.modes.drogue_rate_filter = f32::INFINITY),
+            Some(("modes.drogue_rate_filter", NotFinite, "finite, > 0"))
         );
-        c.modes.drogue_rate_filter = 1.5;
         assert_eq!(
-            c.validate(),
-            Err(ConfigError {
-                field: "modes.drogue_rate_filter (<= 1)",
-                problem: ConfigProblem::Inconsistent
-            })
+            rejection(|c| c.modes.drogue_rate_filter = 1.5),
+            Some((
+                "modes.drogue_rate_filter",
+                Inconsistent,
+                "modes.drogue_rate_filter <= 1.0"
+            ))
         );
-        c.modes.drogue_rate_filter = 1.0;
-        assert_eq!(c.validate(), Ok(()));
-        let mut c = ControllerConfig::default();
-        c.modes.breakaway_down_mps = -1.0;
+        assert_eq!(rejection(|c| c.modes.drogue_rate_filter = 1.0), None);
         assert_eq!(
-            c.validate().map_err(|e| e.problem),
-            Err(ConfigProblem::Negative)
+            rejection(|c| c.modes.breakaway_down_mps = -1.0),
+            Some(("modes.breakaway_down_mps", Negative, "finite, >= 0"))
+        );
+        assert_eq!(
+            rejection(|c| c.camera.position_body_m[2] = f32::INFINITY),
+            Some((
+                "camera.position_body_m",
+                NotFinite,
+                "finite (every element)"
+            ))
+        );
+        assert_eq!(
+            rejection(|c| c.integrator_limit_m = -1.0),
+            Some(("integrator_limit_m", NotPositive, "finite, > 0"))
+        );
+        assert_eq!(
+            rejection(|c| c.refuelling.max_attempts = 0),
+            Some((
+                "refuelling.max_attempts",
+                Inconsistent,
+                "refuelling.max_attempts >= 1"
+            ))
+        );
+    }
+
+    #[test]
+    fn every_rule_names_a_dotted_path_and_holds_rules_quote_their_condition() {
+        // (host-sim's schema tests break every rule's field through its path and check the
+        // report names it.)
+        for rule in RULES {
+            let f = rule.field;
+            assert!(
+                !f.is_empty()
+                    && !f.starts_with('.')
+                    && !f.ends_with('.')
+                    && f.chars().all(|c| c.is_ascii_lowercase()
+                        || c.is_ascii_digit()
+                        || c == '_'
+                        || c == '.'),
+                "{rule:?}"
+            );
+        }
+        let late: heapless::Vec<_, 4> = RULES
+            .iter()
+            .filter(|r| r.field == "refuelling.late_gate_final_radius_m")
+            .map(|r| r.requirement)
+            .collect();
+        assert_eq!(
+            late.as_slice(),
+            [
+                "finite, > 0",
+                "refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m"
+            ]
+        );
+    }
+
+    #[test]
+    fn the_error_says_the_rule_it_broke() {
+        let e = ControllerConfig {
+            integrator_limit_m: 0.0,
+            ..ControllerConfig::default()
+        }
+        .validate()
+        .err();
+        let mut text = heapless::String::<160>::new();
+        if let Some(e) = e {
+            core::fmt::write(&mut text, format_args!("{e}")).ok();
+        }
+        assert_eq!(
+            text.as_str(),
+            "invalid controller configuration: integrator_limit_m is NotPositive (requires finite, > 0)"
         );
     }
 }

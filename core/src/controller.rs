@@ -248,6 +248,7 @@ impl Derived {
         let inconsistent = |field| ConfigError {
             field,
             problem: ConfigProblem::Inconsistent,
+            requirement: "every limit finite, > 0",
         };
         Ok(Self {
             envelope: EnvelopeBits::new(&cfg.nav_envelope)

@@ -1173,10 +1173,12 @@ mod tests {
 
     #[test]
     fn a_rejection_carries_the_path_the_validation_named() {
-        let e = ConfigError {
-            field: "modes.drogue_rate_filter (<= 1)",
-            problem: ConfigProblem::Inconsistent,
+        let mut bad = ControllerConfig::default();
+        bad.modes.drogue_rate_filter = 1.5;
+        let Err(e) = bad.validate() else {
+            panic!("a filter of 1.5 is refused")
         };
+        assert_eq!(e.field, "modes.drogue_rate_filter");
         match ConfigStatus::rejected(e) {
             ConfigStatus::Rejected { field, problem } => {
                 assert_eq!(field.as_str(), e.field);
@@ -1188,9 +1190,21 @@ mod tests {
         match ConfigStatus::rejected(ConfigError {
             field: long,
             problem: ConfigProblem::NotFinite,
+            requirement: "finite",
         }) {
             ConfigStatus::Rejected { field, .. } => assert_eq!(field.as_str(), &long[..96]),
             other => panic!("{other:?}"),
+        }
+        // Every path a rule can name fits on the wire whole.
+        for rule in crate::config::RULES {
+            let ConfigStatus::Rejected { field, .. } = ConfigStatus::rejected(ConfigError {
+                field: rule.field,
+                problem: ConfigProblem::Inconsistent,
+                requirement: rule.requirement,
+            }) else {
+                panic!("a rejection")
+            };
+            assert_eq!(field.as_str(), rule.field);
         }
         assert_eq!(
             ConfigStatus::refused(ReconfigureError::NotStandby(Mode::Approach)),
