@@ -4,6 +4,16 @@
 //! image units), the F-16's airframe facts where they apply, and our stated judgement
 //! elsewhere (each documented on its field and in `docs/conventions.md`).
 //!
+//! [`ControllerConfig`] is the configuration's one schema: the simulator's scenario files
+//! read their `[controller]` table into it key for key, the flight computer receives it whole
+//! in a configuration frame, and `host-sim config schema` prints every field with its unit,
+//! default and rules. The rules are written once ([`RULES`], generated with the checks from
+//! one list), each naming its field by the tokens that read it, so an error's path cannot
+//! drift from the struct. Why not quartiq's `miniconf` (a settings tree with a path per field,
+//! as stabilizer uses it): its strength is setting one field at a time, and here the rules
+//! relate fields to one another (the closing band, the gate radii, the station against the
+//! commit depth), so a configuration is validated and swapped whole, between two steps.
+//!
 //! Invariant: a [`crate::Controller`] is only built from a configuration that passed
 //! [`ControllerConfig::validate`]; the step relies on it (positive gains and limits,
 //! `min_closing <= max_closing`, trim inside the actuator limits).
@@ -24,9 +34,10 @@ use crate::outer::{IbvsGains, PbvsGains, PbvsGeometry, VelocityLimits};
 use crate::predictor::MAX_NAV_LATENCY_STEPS;
 use crate::procedure::{Procedure, RefuellingConfig};
 
-/// Which outer loop flies the approach.
+/// Which outer loop flies the approach (`"ibvs"` or `"pbvs"` in text formats).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(rename_all = "lowercase")]
 pub enum OuterLaw {
     /// Image-based visual servo (the paper's method).
     #[default]

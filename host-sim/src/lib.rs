@@ -15,7 +15,8 @@
 //!   [`synthesis`] (discretisation, Riccati, the core's generated gains module);
 //! - the world: [`world`] (hose and drogue, Dryden turbulence, tanker wake, bow wave, the LED
 //!   and ideal cameras, the INS, fault injection);
-//! - a run: [`scenario`] (scenario files, presets, dispersion), [`sim`] (the closed loop),
+//! - a run: [`scenario`] (scenario files, presets, dispersion; the controller's settings
+//!   are its `[controller]` table, whose schema is [`config_schema`]), [`sim`] (the closed loop),
 //!   [`docking`] (what counts as a dock), [`pil`] (the flight computer inside QEMU over its
 //!   serial link);
 //! - what a run gives: [`output`] (CSV, JSON), [`plot`], [`record`] (a run recorded in full:
@@ -28,6 +29,7 @@
 //! dispersion, link faults); the same scenario file gives the same run, bit for bit.
 
 pub mod animate;
+pub mod config_schema;
 pub mod docking;
 pub mod flight_log;
 pub mod linearize;

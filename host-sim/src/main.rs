@@ -10,6 +10,7 @@
 //!                    [--animate [--still-s T]] [--log PATH.mcap]
 //! host-sim scenarios
 //! host-sim scenario show NAME|PATH
+//! host-sim config    schema [--json] | show [--scenario NAME|PATH] [--json]
 //! host-sim paper     [--out DIR] [--seeds N]
 //! host-sim montecarlo --scenario NAME|PATH --runs N [--jobs J] [--shard K/M | --shards M] [--pil [--firmware ELF]] [--out DIR]
 //! host-sim montecarlo --scenario NAME|PATH --show-run I
@@ -24,17 +25,20 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use host_sim::animate::{self, AnimationOptions};
+use host_sim::config_schema;
 use host_sim::montecarlo::{self, CampaignComputer, CampaignMeta, Shard};
 use host_sim::receiver::F16;
 use host_sim::record::{self, Recording};
-use host_sim::scenario::{Law, PRESETS, ScenarioFile};
+use host_sim::scenario::{ControllerSection, PRESETS, ScenarioFile};
+
 use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
 };
 use host_sim::{flight_log, output, paper, pil, plot};
-use ibvs_core::Controller;
 use ibvs_core::wire::CostUnit;
+use ibvs_core::{Controller, OuterLaw};
+use serde::Deserialize as _;
 
 #[derive(Parser)]
 #[command(
@@ -78,19 +82,19 @@ enum Command {
         /// A built-in scenario (`host-sim scenarios` lists them) or a TOML file.
         #[arg(long, value_name = "NAME|PATH", default_value = "calm")]
         scenario: String,
-        /// Outer loop.
-        #[arg(long, value_enum)]
-        controller: Option<Law>,
+        /// Outer loop of the paper's procedure (`controller.law`): ibvs or pbvs.
+        #[arg(long, value_parser = parse_law)]
+        controller: Option<OuterLaw>,
         /// Drogue centre minus probe tip at the start, tanker axes (forward, right, down), m.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         start: Option<Vec<f64>>,
         /// Seed of every random process.
         #[arg(long)]
         seed: Option<u64>,
-        /// IBVS outer gains k1,k2,k3,k4,k5 (normalised image units).
+        /// IBVS outer gains k1,k2,k3,k4,k5 (`controller.ibvs.k1_mps` ..), m/s and 1/s.
         #[arg(long, value_delimiter = ',')]
         ibvs_gains: Option<Vec<f64>>,
-        /// Minimum closing speed a, m/s.
+        /// Minimum closing speed a (`controller.velocity_limits.min_closing_mps`), m/s.
         #[arg(long)]
         min_closing_mps: Option<f64>,
         /// Time budget, s.
@@ -138,6 +142,11 @@ enum Command {
     Scenario {
         #[command(subcommand)]
         action: ScenarioAction,
+    },
+    /// The controller's configuration: its schema, or the one a scenario flies.
+    Config {
+        #[command(subcommand)]
+        action: ConfigAction,
     },
     /// Run the paper's four experiments and write their figures, data and summary table.
     Paper {
@@ -215,6 +224,27 @@ enum ScenarioAction {
     },
 }
 
+#[derive(Subcommand)]
+enum ConfigAction {
+    /// Every setting (a scenario's `[controller]` key, a configuration frame's field): unit,
+    /// default, the paper's default where it differs, and the rules it must satisfy.
+    Schema {
+        /// As JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The whole configuration a scenario's controller flies, every key (the world's
+    /// derived ones included), as TOML under `[controller]` or as JSON.
+    Show {
+        /// A built-in scenario or a TOML file.
+        #[arg(long, value_name = "NAME|PATH", default_value = "calm")]
+        scenario: String,
+        /// As JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -257,8 +287,9 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             log,
         } => {
             let mut f = ScenarioFile::load(&scenario)?;
+            let cfg = &mut f.controller.config;
             if let Some(c) = controller {
-                f.controller = c;
+                cfg.law = c;
             }
             if let Some(v) = start {
                 f.initial.drogue_minus_probe_m = v
@@ -269,12 +300,15 @@ fn run(cli: Cli) -> Result<(), AnyError> {
                 f.seed = v;
             }
             if let Some(k) = ibvs_gains {
-                f.gains.k = k
+                let [k1, k2, k3, k4, k5]: [f64; 5] = k
                     .try_into()
                     .map_err(|_| "--ibvs-gains takes five values: k1,k2,k3,k4,k5")?;
+                let g = &mut cfg.ibvs;
+                (g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps) =
+                    (k1 as f32, k2 as f32, k3 as f32, k4 as f32, k5 as f32);
             }
             if let Some(a) = min_closing_mps {
-                f.gains.min_closing_mps = a;
+                cfg.velocity_limits.min_closing_mps = a as f32;
             }
             if let Some(t) = duration_s {
                 f.duration_s = t;
@@ -302,6 +336,35 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             action: ScenarioAction::Show { name },
         } => {
             print!("{}", ScenarioFile::load(&name)?.to_toml());
+            Ok(())
+        }
+        Command::Config {
+            action: ConfigAction::Schema { json },
+        } => {
+            let schema = config_schema::schema();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&schema)?);
+            } else {
+                print!("{}", config_schema::to_text(&schema));
+            }
+            Ok(())
+        }
+        Command::Config {
+            action: ConfigAction::Show { scenario, json },
+        } => {
+            let cfg = ScenarioFile::load(&scenario)?.controller_config();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&cfg)?);
+            } else {
+                let section = ControllerSection {
+                    config: cfg,
+                    camera_position_given: true,
+                    nav_latency_given: true,
+                };
+                let mut doc = toml::Table::new();
+                doc.insert("controller".into(), toml::Value::Table(section.to_table()));
+                print!("{}", toml::to_string(&doc)?);
+            }
             Ok(())
         }
         Command::Paper { out, seeds } => {
@@ -608,4 +671,10 @@ fn dock(
         }
     }
     Ok(())
+}
+
+/// `--controller`: an outer law by its name in scenario files (`ibvs`, `pbvs`).
+fn parse_law(s: &str) -> Result<OuterLaw, String> {
+    OuterLaw::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s))
+        .map_err(|e| format!("{e} (ibvs or pbvs)"))
 }

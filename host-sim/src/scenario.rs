@@ -7,6 +7,12 @@
 //! range. [`ScenarioFile::scenario`] and [`ScenarioFile::controller_config`] turn a validated
 //! file into the simulator's [`Scenario`] and the controller's [`ControllerConfig`].
 //!
+//! The controller's settings are one table, `[controller]`, whose keys are
+//! [`ControllerConfig`]'s own fields ([`controller`]: no second copy of the configuration's
+//! schema lives here); the world decides the two settings that describe the installation
+//! (where the camera is believed to be, the navigation's latency) unless that table gives
+//! them.
+//!
 //! The `[dispersion]` table is read only by Monte Carlo campaigns (`host-sim montecarlo`):
 //! it gives ranges, and [`ScenarioFile::dispersed`] turns the file and a run index into the
 //! file of that run, with every dispersed value drawn uniformly from its range by a generator
@@ -16,9 +22,8 @@
 //! Invariants: a built scenario only contains values that passed [`ScenarioFile::validate`];
 //! a dispersed file validates whenever its base file does.
 
-use ibvs_core::estimator::EstimatorConfig;
+use ibvs_core::ControllerConfig;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
-use ibvs_core::{ControllerConfig, OuterLaw, Procedure, RefuellingConfig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -33,16 +38,9 @@ use crate::world::nav::InsErrors;
 use crate::world::turbulence::TurbulencePreset;
 use crate::world::wake::WakeParams;
 
-/// Which outer loop flies.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Law {
-    /// Image-based (the paper's).
-    #[default]
-    Ibvs,
-    /// Position-based baseline.
-    Pbvs,
-}
+pub mod controller;
+
+pub use controller::{ControllerKeyError, ControllerSection};
 
 /// Which drogue model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -107,31 +105,17 @@ pub struct NavigationSection {
     pub model: NavModel,
     /// The INS's error figures (`docs/models.md`, "Navigation").
     pub ins: InsErrors,
-    /// The latency the controller compensates, control periods (its
-    /// `nav_latency_steps`). Absent: the INS's own `ins.latency_steps` (as installation
-    /// data would give it), 0 with ideal navigation.
-    pub compensated_latency_steps: Option<u8>,
 }
 
 impl NavigationSection {
-    /// The latency the controller compensates: the stated figure, else the INS's own, 0 with
-    /// ideal navigation.
-    pub fn compensated(&self) -> u8 {
-        self.compensated_latency_steps.unwrap_or(match self.model {
+    /// The latency the installation data gives the controller (its `nav_latency_steps`
+    /// unless `[controller]` states one): the INS's own, 0 with ideal navigation.
+    pub fn installed_latency_steps(&self) -> u8 {
+        match self.model {
             NavModel::Ins => u8::try_from(self.ins.latency_steps).unwrap_or(u8::MAX),
             NavModel::Ideal => 0,
-        })
+        }
     }
-}
-
-/// `[gains]`: outer-loop gains.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct GainsSection {
-    /// k1..k5 (paper Table 1 by default), normalised image units.
-    pub k: [f64; 5],
-    /// Minimum closing speed a, m/s.
-    pub min_closing_mps: f64,
 }
 
 /// `[initial]`: start geometry.
@@ -287,12 +271,9 @@ pub struct ScenarioFile {
     pub seed: u64,
     /// Time budget, s.
     pub duration_s: f64,
-    /// The procedure the controller flies: `refuelling` (the default) or the paper's.
-    pub procedure: Procedure,
-    /// Outer loop of the paper's procedure.
-    pub controller: Law,
-    /// Outer-loop gains.
-    pub gains: GainsSection,
+    /// The controller's configuration (`[controller]`: [`ControllerConfig`]'s keys, each
+    /// optional over its default, the refuelling procedure).
+    pub controller: ControllerSection,
     /// Start geometry.
     pub initial: InitialSection,
     /// Turbulence.
@@ -311,25 +292,16 @@ pub struct ScenarioFile {
     pub flight: FlightSection,
     /// Navigation.
     pub navigation: NavigationSection,
-    /// The refuelling procedure's parameters (the controller's own configuration).
-    pub refuelling: RefuellingConfig,
-    /// The drogue estimator's parameters (the controller's own configuration).
-    pub estimator: EstimatorConfig,
     /// Monte Carlo ranges (campaigns only).
     #[serde(skip_serializing_if = "DispersionSection::is_empty")]
     pub dispersion: DispersionSection,
 }
 
-/// Table 1 of the paper: k1..k5.
-pub const TABLE_1: [f64; 5] = [1.0, 2.0, 0.3, 3.0, 1.0];
-/// Table 2 of the paper (under the bow wave): k1..k5.
-pub const TABLE_2: [f64; 5] = [3.0, 3.0, 0.5, 5.0, 2.0];
 /// The paper's camera position error, body axes, m (Sec. IV, experiment 2).
 pub const PAPER_MOUNT_ERROR_M: [f64; 3] = [1.0, 0.0, -0.5];
 
 impl Default for ScenarioFile {
     fn default() -> Self {
-        let cfg = ControllerConfig::default();
         Self {
             name: "default".into(),
             seed: 1,
@@ -337,12 +309,7 @@ impl Default for ScenarioFile {
             // that every run ends in a docking, a strike or a breakaway, never in the
             // simulator's own time limit.
             duration_s: 160.0,
-            procedure: Procedure::Refuelling,
-            controller: Law::Ibvs,
-            gains: GainsSection {
-                k: TABLE_1,
-                min_closing_mps: f64::from(cfg.velocity_limits.min_closing_mps),
-            },
+            controller: ControllerSection::default(),
             initial: InitialSection {
                 drogue_minus_probe_m: PAPER_START_M,
             },
@@ -374,20 +341,12 @@ impl Default for ScenarioFile {
             navigation: NavigationSection {
                 model: NavModel::Ins,
                 ins: InsErrors::default(),
-                compensated_latency_steps: None,
             },
-            refuelling: cfg.refuelling,
-            estimator: cfg.estimator,
             dispersion: DispersionSection::default(),
         }
     }
 }
 
-impl Default for GainsSection {
-    fn default() -> Self {
-        ScenarioFile::default().gains
-    }
-}
 impl Default for InitialSection {
     fn default() -> Self {
         ScenarioFile::default().initial
@@ -455,9 +414,16 @@ pub enum ScenarioError {
         /// Maximum given.
         max: String,
     },
-    /// The controller's configuration the file makes is invalid (the core names the field).
-    #[error("{0}")]
+    /// The controller's configuration the file makes is invalid (the core names the field
+    /// and the rule).
+    #[error(
+        "controller.{field} is {problem:?}: the controller requires {requirement}",
+        field = .0.field, problem = .0.problem, requirement = .0.requirement
+    )]
     Controller(#[from] ibvs_core::ConfigError),
+    /// Two keys give the same thing.
+    #[error("{0}")]
+    Conflict(&'static str),
     /// A flight condition outside the models' validity (the key and the limit named).
     #[error(transparent)]
     Flight(#[from] FlightConditionError),
@@ -545,12 +511,13 @@ macro_rules! paper_dispersion {
     };
 }
 
-/// What makes a preset fly the paper's experiment as the paper does, its top-level keys (TOML
-/// puts them before any table): its procedure and law, its 70 s budget. Each paper preset also
-/// puts the camera at the probe tip (`[camera] placement`) and navigation perfect.
+/// What makes a preset fly the paper's experiment as the paper does: its 70 s budget and the
+/// paper's procedure (`[controller] procedure`; more `[controller]` keys may follow). Each
+/// paper preset also puts the camera at the probe tip (`[camera] placement`) and navigation
+/// perfect.
 macro_rules! paper_keys {
     () => {
-        "procedure = \"paper\"\nduration_s = 70.0\n"
+        "duration_s = 70.0\n[controller]\nprocedure = \"paper\"\n"
     };
 }
 
@@ -610,7 +577,8 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         concat!(
             paper_keys!(),
             "[camera]\nplacement = \"probe-tip\"\n[navigation]\nmodel = \"ideal\"\n",
-            "[gains]\nk = [3.0, 3.0, 0.5, 5.0, 2.0]\n[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
+            "[controller.ibvs]\nk1_mps = 3.0\nk2_mps = 3.0\nk3_per_s = 0.5\nk4_mps = 5.0\nk5_mps = 2.0\n",
+            "[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
             paper_dispersion!("[0.4, 0.6]")
         ),
     ),
@@ -619,7 +587,7 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         "the paper's procedure: paper start, IBVS, camera mount error [1, 0, -0.5] m",
         concat!(
             paper_keys!(),
-            "controller = \"ibvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
+            "law = \"ibvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
             "[navigation]\nmodel = \"ideal\"\n",
         ),
     ),
@@ -628,7 +596,7 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         "the paper's procedure: paper start, PBVS, camera mount error [1, 0, -0.5] m",
         concat!(
             paper_keys!(),
-            "controller = \"pbvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
+            "law = \"pbvs\"\n[camera]\nplacement = \"probe-tip\"\nmount_error_m = [1.0, 0.0, -0.5]\n",
             "[navigation]\nmodel = \"ideal\"\n",
         ),
     ),
@@ -733,28 +701,6 @@ impl ScenarioFile {
     /// Checks every value against its allowed range.
     pub fn validate(&self) -> Result<(), ScenarioError> {
         range("duration_s", self.duration_s, 0.1, 3600.0, "0.1..=3600")?;
-        let k_names = [
-            "gains.k[0] (k1)",
-            "gains.k[1] (k2)",
-            "gains.k[2] (k3)",
-            "gains.k[3] (k4)",
-            "gains.k[4] (k5)",
-        ];
-        for (i, (k, key)) in self.gains.k.iter().zip(k_names).enumerate() {
-            let (lo, allowed) = if i < 3 {
-                (1e-6, "(0, 100]")
-            } else {
-                (0.0, "0..=100")
-            };
-            range(key, *k, lo, 100.0, allowed)?;
-        }
-        range(
-            "gains.min_closing_mps",
-            self.gains.min_closing_mps,
-            0.05,
-            2.0,
-            "0.05..=2.0 (at most the closing-speed limit)",
-        )?;
         for (v, key) in self.initial.drogue_minus_probe_m.iter().zip([
             "initial.drogue_minus_probe_m[0] (forward)",
             "initial.drogue_minus_probe_m[1] (right)",
@@ -835,6 +781,14 @@ impl ScenarioFile {
             .ins
             .validate()
             .map_err(ScenarioError::Navigation)?;
+        if self.controller.camera_position_given
+            && (self.camera.mount_error_m != [0.0; 3] || self.dispersion.mount_error_m.is_some())
+        {
+            return Err(ScenarioError::Conflict(
+                "controller.camera.position_body_m and camera.mount_error_m (or its dispersion) \
+                 both give where the controller believes the camera is: give one",
+            ));
+        }
         self.controller_config().validate()?;
         self.validate_dispersion()
     }
@@ -1003,9 +957,12 @@ impl ScenarioFile {
         if let Some([lo, hi]) = d.nav_latency_steps {
             // The INS's latency varies from run to run; the controller keeps the one it was
             // configured with, the file's (an installation figure, not the run's truth).
-            let nav = &mut f.navigation;
-            nav.compensated_latency_steps = Some(nav.compensated());
-            nav.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
+            let c = &mut f.controller;
+            if !c.nav_latency_given {
+                c.config.nav_latency_steps = self.navigation.installed_latency_steps();
+                c.nav_latency_given = true;
+            }
+            f.navigation.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
         }
         if let Some(r) = d.airspeed_mps {
             f.flight.airspeed_mps = uniform(SALT_AIRSPEED, r);
@@ -1030,44 +987,27 @@ impl ScenarioFile {
             .unwrap_or_else(|| t.preset.sigma_at_mps(h))
     }
 
-    /// The controller's configuration for this scenario: the procedure's default (the
-    /// paper's at the probe tip, or the refuelling one), the file's gains, procedure and
-    /// estimator parameters, and the camera where the controller believes it is: where it
-    /// was meant to be, i.e. its placement, less the mount error.
+    /// The controller's configuration for this scenario: the `[controller]` table over the
+    /// default, with what the world decides unless the table gives it: the camera where it
+    /// was meant to be (its placement) less the mount error (true minus believed), and the
+    /// installed navigation's latency ([`NavigationSection::installed_latency_steps`]).
     pub fn controller_config(&self) -> ControllerConfig {
-        let law = match self.controller {
-            Law::Ibvs => OuterLaw::Ibvs,
-            Law::Pbvs => OuterLaw::Pbvs,
-        };
-        let base = match self.procedure {
-            Procedure::Paper => ControllerConfig::paper(),
-            Procedure::Refuelling => ControllerConfig::default(),
-        };
-        let mut cfg = ControllerConfig {
-            law,
-            refuelling: self.refuelling,
-            estimator: self.estimator,
-            nav_latency_steps: self.navigation.compensated(),
-            ..base
-        };
-        cfg.camera.position_body_m = self
-            .camera
-            .placement
-            .position_body_m()
-            .map(|v| v as f32)
-            .into();
-        let g = &mut cfg.ibvs;
-        let k = self.gains.k.map(|v| v as f32);
-        (g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps) = (k[0], k[1], k[2], k[3], k[4]);
-        cfg.velocity_limits.min_closing_mps = self.gains.min_closing_mps as f32;
-        // The controller believes the camera is where it was meant to be: true minus error.
-        for (b, e) in cfg
-            .camera
-            .position_body_m
-            .iter_mut()
-            .zip(self.camera.mount_error_m)
-        {
-            *b -= e as f32;
+        let section = &self.controller;
+        let mut cfg = section.config;
+        if !section.camera_position_given {
+            let placed = self.camera.placement.position_body_m();
+            for ((b, p), e) in cfg
+                .camera
+                .position_body_m
+                .iter_mut()
+                .zip(placed.iter())
+                .zip(self.camera.mount_error_m)
+            {
+                *b = *p as f32 - e as f32;
+            }
+        }
+        if !section.nav_latency_given {
+            cfg.nav_latency_steps = self.navigation.installed_latency_steps();
         }
         cfg
     }
@@ -1141,6 +1081,7 @@ fn splitmix64(x: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ibvs_core::{OuterLaw, Procedure};
 
     #[test]
     fn every_preset_parses_validates_and_round_trips() {
@@ -1150,15 +1091,24 @@ mod tests {
             let back = ScenarioFile::parse(&f.to_toml(), "round trip").unwrap();
             assert_eq!(back, f, "{name}");
         }
+        // The paper's Table 2 under the bow wave, Table 1 (the default) elsewhere.
         let bow = ScenarioFile::load("paper-bow-wave").unwrap();
-        assert_eq!(bow.gains.k, TABLE_2);
-        assert!(bow.bow_wave.enabled);
+        let g = bow.controller_config().ibvs;
         assert_eq!(
-            ScenarioFile::load("paper-mount-error-pbvs")
-                .unwrap()
-                .controller,
-            Law::Pbvs
+            [g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps],
+            [3.0, 3.0, 0.5, 5.0, 2.0]
         );
+        assert!(bow.bow_wave.enabled);
+        let g = ScenarioFile::load("paper-level2")
+            .unwrap()
+            .controller_config()
+            .ibvs;
+        assert_eq!(
+            [g.k1_mps, g.k2_mps, g.k3_per_s, g.k4_mps, g.k5_mps],
+            [1.0, 2.0, 0.3, 3.0, 1.0]
+        );
+        let pbvs = ScenarioFile::load("paper-mount-error-pbvs").unwrap();
+        assert_eq!(pbvs.controller_config().law, OuterLaw::Pbvs);
     }
 
     #[test]
@@ -1204,10 +1154,20 @@ mod tests {
             e.contains("camera.pixel_noise_px") && e.contains("0..=20"),
             "{e}"
         );
-        let e = ScenarioFile::parse("[gains]\nk = [0.0, 2.0, 0.3, 3.0, 1.0]\n", "bad")
+        let e = ScenarioFile::parse("[controller.ibvs]\nk1_mps = 0.0\n", "bad")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("k1"), "{e}");
+        assert!(
+            e.contains("controller.ibvs.k1_mps is NotPositive") && e.contains("finite, > 0"),
+            "{e}"
+        );
+        let e = ScenarioFile::parse("[controller.ibvs]\nk1 = 1.0\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("controller.ibvs.k1 is not a controller setting"),
+            "{e}"
+        );
         let e = ScenarioFile::parse("[turbulence]\npreset = \"hurricane\"\n", "bad")
             .unwrap_err()
             .to_string();
@@ -1270,7 +1230,11 @@ mod tests {
             ("mil-level2", MIL_LEVEL2_SIGMA_RANGE_MPS),
         ] {
             let f = ScenarioFile::load(name).unwrap();
-            assert_eq!(f.procedure, Procedure::Refuelling, "{name}");
+            assert_eq!(
+                f.controller_config().procedure,
+                Procedure::Refuelling,
+                "{name}"
+            );
             assert_eq!(f.navigation.model, crate::scenario::NavModel::Ins, "{name}");
             assert_eq!(f.camera.placement, CameraPlacement::SetBack, "{name}");
             let d = f.dispersion;
@@ -1293,7 +1257,7 @@ mod tests {
             .filter(|n| n.starts_with("paper-"))
         {
             let f = ScenarioFile::load(name).unwrap();
-            assert_eq!(f.procedure, Procedure::Paper, "{name}");
+            assert_eq!(f.controller_config().procedure, Procedure::Paper, "{name}");
             assert_eq!(f.camera.placement, CameraPlacement::ProbeTip, "{name}");
             assert_eq!(
                 f.navigation.model,
@@ -1367,8 +1331,15 @@ mod tests {
         // Ideal navigation compensates nothing; a stated figure wins over the INS's own.
         let paper = ScenarioFile::load("paper-level2").unwrap();
         assert_eq!(paper.controller_config().nav_latency_steps, 0);
-        let mut stated = base.clone();
-        stated.navigation.compensated_latency_steps = Some(3);
+        let stated = ScenarioFile::parse(
+            &format!(
+                "{}\n[controller]\nnav_latency_steps = 3\n",
+                PRESETS.iter().find(|p| p.0 == "level2").map_or("", |p| p.2)
+            ),
+            "stated",
+        )
+        .unwrap();
+        assert_eq!(stated.controller_config().nav_latency_steps, 3);
         assert_eq!(stated.dispersed(7).controller_config().nav_latency_steps, 3);
     }
 
@@ -1397,7 +1368,7 @@ mod tests {
             assert!(within(f.camera.mount_pitch_error_deg, [-0.5, 0.5]));
             assert!(within(f.receiver.xcg, [0.30, 0.40]));
             // What is not dispersed is the base file's.
-            assert_eq!(f.gains, base.gains);
+            assert_eq!(f.controller, base.controller);
             assert_eq!(f.camera.rate_hz, base.camera.rate_hz);
         }
         assert_eq!(seeds.len(), 200, "a seed per run");

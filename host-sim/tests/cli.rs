@@ -160,7 +160,49 @@ fn bad_arguments_are_named_errors() {
     assert!(stderr.contains("invalid condition"), "{stderr}");
     let (ok, _, stderr) = host_sim(&["dock", "--ibvs-gains", "0,2,0.3,3,1", "--no-files"]);
     assert!(!ok);
-    assert!(stderr.contains("k1"), "{stderr}");
+    assert!(
+        stderr.contains("controller.ibvs.k1_mps is NotPositive"),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = host_sim(&["dock", "--controller", "lqr", "--no-files"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("lqr") && stderr.contains("ibvs or pbvs"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn the_configuration_schema_and_a_scenarios_configuration_are_printed() {
+    // The schema: every setting with its unit, default and rules, as JSON.
+    let v = json(&["config", "schema", "--json"]);
+    let settings = v["settings"].as_array().expect("settings");
+    let k1 = settings
+        .iter()
+        .find(|s| s["key"] == "ibvs.k1_mps")
+        .expect("ibvs.k1_mps");
+    assert_eq!(k1["unit"], "m/s");
+    assert_eq!(k1["default"], "1.0");
+    assert_eq!(k1["rules"][0], "finite, > 0");
+    let late = settings
+        .iter()
+        .find(|s| s["key"] == "refuelling.late_gate_final_radius_m")
+        .expect("late gate");
+    assert_eq!(
+        late["rules"][1],
+        "refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m"
+    );
+    // What a scenario flies, every key: Table 2 under the bow wave, the camera at the tip.
+    let (ok, text, stderr) = host_sim(&["config", "show", "--scenario", "paper-bow-wave"]);
+    assert!(ok, "{stderr}");
+    let t: toml::Table = text.parse().expect("TOML");
+    let c = &t["controller"];
+    assert_eq!(c["procedure"].as_str(), Some("paper"));
+    assert_eq!(c["ibvs"]["k1_mps"].as_float(), Some(3.0));
+    assert_eq!(c["nav_latency_steps"].as_integer(), Some(0));
+    let shown = json(&["config", "show", "--scenario", "calm", "--json"]);
+    assert_eq!(shown["procedure"], "refuelling");
+    assert_eq!(shown["nav_latency_steps"], 1);
 }
 
 #[test]

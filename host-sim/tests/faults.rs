@@ -44,7 +44,7 @@ fn fly(faults: &[SimFault]) -> Flown {
 /// navigation, as its presets (`paper-level1`).
 fn fly_paper(faults: &[SimFault]) -> Flown {
     let mut f = ScenarioFile::load("calm").expect("preset");
-    f.procedure = Procedure::Paper;
+    f.controller.config.procedure = Procedure::Paper;
     f.camera.placement = CameraPlacement::ProbeTip;
     f.navigation.model = NavModel::Ideal;
     f.duration_s = 70.0;

@@ -54,7 +54,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use host_sim::pil::{self, PilFlightComputer};
-use host_sim::scenario::{ScenarioFile, TABLE_1};
+use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{self, FlightComputer, Scenario};
 use host_sim::world::faults::{Actuator, FaultKind, SimFault};
 use ibvs_core::nav::NavSample;
@@ -143,9 +143,10 @@ fn record(
 fn preset(name: &str, seed: u64, edit: impl FnOnce(&mut ScenarioFile)) -> Result<Scenario, Error> {
     let mut f = ScenarioFile::load(name)?;
     f.seed = seed;
-    f.gains.k = TABLE_1;
-    f.gains.min_closing_mps =
-        f64::from(ControllerConfig::default().velocity_limits.min_closing_mps);
+    let d = ControllerConfig::default();
+    let c = &mut f.controller.config;
+    c.ibvs = d.ibvs;
+    c.velocity_limits.min_closing_mps = d.velocity_limits.min_closing_mps;
     edit(&mut f);
     if f.controller_config() != ControllerConfig::default() {
         return Err(format!(
