@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace on a fresh machine, installing what it needs first.
 #
+#   0. the pinned compiler (rust-toolchain.toml);
 #   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
 #      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump, for the static
 #      bound of the control step in the benchmark gate);
@@ -17,6 +18,23 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# The pinned compiler (rust-toolchain.toml: the gate's figures were measured with it). rustup
+# installs it with its components and target on first use; where nothing can be downloaded
+# but the machine's stable is that very release, stable serves under the pinned name.
+pinned=$(sed -n 's/^channel = "\(.*\)"$/\1/p' rust-toolchain.toml)
+if ! rustup toolchain list | grep -q "^$pinned-"; then
+    if ! rustup toolchain install "$pinned" --profile minimal \
+        --component rustfmt,clippy --target thumbv7em-none-eabihf; then
+        stable_rustc=$(rustc +stable --version)
+        case "$stable_rustc" in
+            "rustc $pinned "*)
+                host=$(rustc +stable -vV | sed -n 's/^host: //p')
+                ln -s "$(rustc +stable --print sysroot)" \
+                    "${RUSTUP_HOME:-$HOME/.rustup}/toolchains/$pinned-$host" ;;
+            *) echo "cannot install Rust $pinned, and stable is $stable_rustc" >&2; exit 1 ;;
+        esac
+    fi
+fi
 rustup target add thumbv7em-none-eabihf
 rustup component add rustfmt clippy
 command -v flip-link >/dev/null || cargo install flip-link --locked

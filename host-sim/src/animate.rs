@@ -750,8 +750,8 @@ fn gate_line(run: &Run, rec: &Recording, k: usize) -> Option<String> {
             rc.gate_radius_m
         )
     };
-    Some(match (o.mode, o.no_go) {
-        (Mode::Approach, _) => {
+    Some(match (o.mode, o.no_go, go) {
+        (Mode::Approach, _, _) => {
             let p = o.predicted_miss_m;
             let verdict = if p <= rc.gate_radius_m { "go" } else { "no-go" };
             if p.is_finite() {
@@ -763,7 +763,7 @@ fn gate_line(run: &Run, rec: &Recording, k: usize) -> Option<String> {
                 format!("gate at {:.1} m: no prediction yet", rc.commit_depth_m)
             }
         }
-        (Mode::Terminal, _) if let Some(g) = go => format!(
+        (Mode::Terminal, _, Some(g)) => format!(
             "go at {:.2} s ({} ≤ {:.2} m); late gate {} ≤ {:.2} m",
             g.time_s,
             miss(g.output.predicted_miss_m),
@@ -771,7 +771,7 @@ fn gate_line(run: &Run, rec: &Recording, k: usize) -> Option<String> {
             miss(o.predicted_miss_m),
             RefuelLimits::new(rc, Controller::PERIOD_S).late_gate_radius_m(rc, o.estimate.depth_m)
         ),
-        (_, Some(reason)) => match no_go {
+        (_, Some(reason), _) => match no_go {
             Some(n) => format!(
                 "no-go at {:.2} s: {reason:?}, predicted {} m",
                 n.time_s,
