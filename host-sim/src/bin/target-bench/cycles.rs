@@ -417,6 +417,57 @@ pub fn fp_stall(previous: &Cost, next_operands: &str) -> u64 {
     u64::from(named)
 }
 
+/// How control passes from one instruction to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pass {
+    /// To the next instruction in memory; `after_conditional`: a conditional branch not taken
+    /// (whose target the core fetched speculatively).
+    Fall { after_conditional: bool },
+    /// A branch (or jump table entry) taken.
+    Taken,
+    /// Back from a call, to the instruction after it (fetched anew).
+    AfterCall,
+}
+
+/// The flash lines (first, last) an instruction at `addr` of `size` bytes spans.
+pub fn lines_of(addr: u64, size: u64) -> (u64, u64) {
+    (addr / FLASH_LINE, (addr + size.max(1) - 1) / FLASH_LINE)
+}
+
+/// The fetch of an instruction reached by a branch, a call or a return, or at a function's
+/// entry: its lines, each a flash access.
+pub fn fetch(model: Model, addr: u64, size: u64) -> u64 {
+    let (first, last) = lines_of(addr, size);
+    (last - first + 1) * model.flash_wait
+}
+
+/// The cycles control adds passing from instruction `from` (at `from_addr`, `from_size`
+/// bytes, costing `from_cost`) to `to` (at `to_addr`, `to_size` bytes, with `to_operands`):
+/// a taken branch's refill and the target's fetch; on a fall-through, the lines newly
+/// entered, a not-taken conditional branch's speculative fetch and an FPU result's latency.
+pub fn transition(
+    model: Model,
+    (from_addr, from_size, from_cost): (u64, u64, &Cost),
+    (to_addr, to_size, to_operands): (u64, u64, &str),
+    pass: Pass,
+) -> u64 {
+    let w = model.flash_wait;
+    match pass {
+        Pass::Taken => from_cost.taken + fetch(model, to_addr, to_size),
+        Pass::AfterCall => fetch(model, to_addr, to_size),
+        Pass::Fall { after_conditional } => {
+            let (_, last_from) = lines_of(from_addr, from_size);
+            let (first_to, last_to) = lines_of(to_addr, to_size);
+            let new = if last_to > last_from {
+                last_to - first_to.max(last_from + 1) + 1
+            } else {
+                0
+            };
+            new * w + if after_conditional { w } else { 0 } + fp_stall(from_cost, to_operands)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,6 +5,7 @@
 //! cargo run --release -p host-sim --bin target-bench -- --detail     # plus every workload
 //! cargo run --release -p host-sim --bin target-bench -- --check benchmarks/expected.json
 //! cargo run --release -p host-sim --bin target-bench -- --loops      # the loops and their bounds
+//! cargo run --release -p host-sim --bin target-bench -- --path-cycles BENCH_ELF # per path
 //! ```
 //!
 //! Method (`docs/benchmarks.md`):
@@ -49,6 +50,8 @@
 //!   interrupts that can land on it (`cycle_cycles_bound`, `cycle_us_bound`); what they
 //!   assume is under `assumptions`. `--loops` lists every loop and its bound, and fails
 //!   when one is undeclared or stale.
+//! - `--path-cycles` ([`paths`]): the cycle model applied to the step as it ran, path by path,
+//!   in the `bench` build's scripted sortie (QEMU's execution log), each within the bound.
 //!
 //! `--check FILE` compares the step's maximum instructions, its static bounds (which must
 //! exist: a loop without a declared bound, recursion or an indirect call makes them `null`
@@ -61,6 +64,7 @@
 
 mod cycles;
 mod elf;
+mod paths;
 mod task;
 mod wcet;
 
@@ -113,6 +117,11 @@ struct Args {
     /// bound or `UNDECLARED` / `STALE` (for updating the table in `task.rs`), and exit.
     #[arg(long, conflicts_with_all = ["check", "detail"])]
     loops: bool,
+    /// Run this `qemu` ELF built with the `bench` feature in QEMU with its execution log,
+    /// cost every path of its scripted sortie's steps as they ran with the cycle model, print
+    /// the figures and exit (a development measurement: `docs/benchmarks.md`).
+    #[arg(long, value_name = "BENCH_ELF", conflicts_with_all = ["check", "detail", "loops"])]
+    path_cycles: Option<PathBuf>,
 }
 
 /// One input sequence to replay through the firmware.
@@ -688,6 +697,12 @@ fn list_loops(qemu: &Path, f405: &Path) -> Result<bool, Error> {
 }
 
 fn run(args: Args) -> Result<bool, Error> {
+    if let Some(elf) = &args.path_cycles {
+        let dir = pil::target_dir().join("target-bench-paths");
+        let r = paths::path_cycles(elf, &dir)?;
+        println!("{}", serde_json::to_string_pretty(&r)?);
+        return Ok(true);
+    }
     let qemu = qemu_elf(
         args.qemu_elf
             .or_else(|| std::env::var_os(pil::FIRMWARE_ELF_ENV).map(PathBuf::from)),

@@ -367,17 +367,8 @@ fn flow(line: &Line, table: impl Fn() -> Vec<u64>) -> Flow {
     Flow::Next
 }
 
-/// How an edge of the graph is taken (its cost in cycles depends on it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Edge {
-    /// To the next instruction; `after_conditional`: a conditional branch not taken (whose
-    /// target the core fetched speculatively).
-    Fall { after_conditional: bool },
-    /// A branch or table entry taken.
-    Taken,
-    /// The return from a call to the instruction after it (fetched anew).
-    AfterCall,
-}
+// How an edge of the graph is taken (its cost in cycles depends on it).
+use cycles::Pass as Edge;
 
 /// What writing a register amounts to, for the size of a library call.
 enum Write {
@@ -489,13 +480,6 @@ fn writes(line: &Line, reg: &str) -> Write {
     }
 }
 
-/// Flash lines an instruction at `addr` of `size` bytes spans.
-fn lines_of(addr: u64, size: u64) -> (u64, u64) {
-    let first = addr / cycles::FLASH_LINE;
-    let last = (addr + size.max(1) - 1) / cycles::FLASH_LINE;
-    (first, last)
-}
-
 /// The byte count of a sized library call: at least `min`, at most `max`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 struct Size {
@@ -563,6 +547,12 @@ impl Disassembly {
         Ok(d)
     }
 
+    /// The disassembly of an objdump text (tests of other modules).
+    #[cfg(test)]
+    pub fn parse_for_tests(text: &str) -> Self {
+        Self::parse(text)
+    }
+
     fn parse(text: &str) -> Self {
         let mut functions: BTreeMap<u64, Function> = BTreeMap::new();
         let mut names: HashMap<String, Vec<u64>> = HashMap::new();
@@ -627,7 +617,7 @@ impl Disassembly {
     }
 
     /// The start address of the function named `name` (an error if none or several).
-    fn address_of(&self, name: &str) -> Result<u64, String> {
+    pub fn address_of(&self, name: &str) -> Result<u64, String> {
         match self.names.get(name).map(Vec::as_slice) {
             Some([a]) => Ok(*a),
             Some([]) | None => Err(format!("function {name} not in the disassembly")),
@@ -636,6 +626,13 @@ impl Disassembly {
                 more.len()
             )),
         }
+    }
+
+    /// The instruction at `addr` (any function's): its size, mnemonic and operands.
+    pub fn instruction_at(&self, addr: u64) -> Option<(u64, &str, &str)> {
+        let (_, f) = self.functions.range(..=addr).next_back()?;
+        let l = f.lines.iter().find(|l| l.addr == addr && !l.is_data())?;
+        Some((l.size, l.mnemonic.as_str(), l.operands.as_str()))
     }
 
     /// Bytes of code (instructions and their literal pools) of the functions at `addrs`.
@@ -975,7 +972,11 @@ impl Analyzer<'_> {
             }
         }
         let w = self.wait();
-        let cycles = matches!(self.metric, Metric::Cycles(_));
+        let model = match self.metric {
+            Metric::Cycles(m) => Some(m),
+            Metric::Instructions => None,
+        };
+        let cycles = model.is_some();
 
         // Node costs (the instruction, its flash data, its callee) and edge costs.
         let mut cost = vec![0u64; n];
@@ -1066,40 +1067,25 @@ impl Analyzer<'_> {
             };
             cost[i] = cost[i].saturating_add(b);
         }
-        let fetch = |j: usize| {
-            let (a, b) = lines_of(lines[j].addr, lines[j].size);
-            (b - a + 1) * w
-        };
         let mut succ: Vec<Vec<(usize, u64)>> = vec![Vec::new(); n];
         for i in (0..n).filter(|&i| g.reached[i]) {
             for &(j, e) in &g.succ[i] {
-                let c = if !cycles {
-                    0
-                } else {
-                    let Some(here) = insn[i].as_ref() else {
+                let c = match (model, insn[i].as_ref()) {
+                    (None, _) => 0,
+                    (Some(m), Some(here)) => cycles::transition(
+                        m,
+                        (lines[i].addr, lines[i].size, here),
+                        (lines[j].addr, lines[j].size, &lines[j].operands),
+                        e,
+                    ),
+                    (Some(_), None) => {
                         return Err(format!("{name}: at {:#x}: not costed", lines[i].addr));
-                    };
-                    match e {
-                        Edge::Taken => here.taken + fetch(j),
-                        Edge::AfterCall => fetch(j),
-                        Edge::Fall { after_conditional } => {
-                            let (_, last_i) = lines_of(lines[i].addr, lines[i].size);
-                            let (first_j, last_j) = lines_of(lines[j].addr, lines[j].size);
-                            let new = if last_j > last_i {
-                                last_j - first_j.max(last_i + 1) + 1
-                            } else {
-                                0
-                            };
-                            new * w
-                                + if after_conditional { w } else { 0 }
-                                + cycles::fp_stall(here, &lines[j].operands)
-                        }
                     }
                 };
                 succ[i].push((j, c));
             }
         }
-        let entry_fetch = if cycles { fetch(0) } else { 0 };
+        let entry_fetch = model.map_or(0, |m| cycles::fetch(m, lines[0].addr, lines[0].size));
 
         // Loops: find them (with their headers), number them by header address, bound them.
         let nodes: Vec<usize> = (0..n).filter(|&i| g.reached[i]).collect();
