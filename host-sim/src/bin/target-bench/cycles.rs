@@ -233,7 +233,7 @@ fn kind(base: &str) -> Option<Kind> {
         // Absolute value, negate, compare, status moves: 1.
         "vabs" | "vneg" | "vcmp" | "vcmpe" | "vmrs" | "vmsr" => one,
         "vmov" => Vmov,
-        // FPU loads and stores: VLDR, VSTR 2; VLDM, VSTM, VPUSH, VPOP 1 + N.
+        // FPU loads and stores: VLDR, VSTR 2 (a doubleword 1 + N = 3); VLDM, VSTM, VPUSH, VPOP 1 + N.
         "vldr" => Load {
             cycles: 2,
             bytes: 4,
@@ -332,6 +332,11 @@ fn lines_touched(bytes: u64) -> u64 {
     }
 }
 
+/// A `vldr`/`vstr` of a doubleword register.
+fn double_fp(base: &str, operands: &str) -> bool {
+    matches!(base, "vldr" | "vstr") && operands.trim_start().starts_with('d')
+}
+
 /// True when an operand list names the PC.
 fn names_pc(operands: &str) -> bool {
     operands
@@ -354,6 +359,12 @@ pub fn cost(mnemonic: &str, operands: &str) -> Result<Cost, CostError> {
         Kind::It => plain(1),
         Kind::Load { cycles, bytes } => {
             let base_reg = base_register(base, operands);
+            // A doubleword FPU load (`vldr d0, ...`) moves two words: 1 + N = 3.
+            let (cycles, bytes) = if double_fp(base, operands) {
+                (3, 8)
+            } else {
+                (cycles, bytes)
+            };
             let mut c = plain(cycles);
             // A load into the PC branches: + P.
             if operands.trim_start().starts_with("pc") {
@@ -364,7 +375,7 @@ pub fn cost(mnemonic: &str, operands: &str) -> Result<Cost, CostError> {
             }
             c
         }
-        Kind::Store { cycles } => plain(cycles),
+        Kind::Store { cycles } => plain(if double_fp(base, operands) { 3 } else { cycles }),
         Kind::LoadMultiple => {
             let n = list_words(operands);
             let mut c = plain(1 + n);
@@ -528,6 +539,10 @@ mod tests {
         assert_eq!(c("vmov", "r0, s1").cycles, 2);
         assert_eq!(c("vmov.f32", "s0, #1.0").cycles, 1);
         assert_eq!(c("vldr", "s0, [r0, #8]").flash_lines, 1);
+        // Doublewords: two words, 1 + N; the literal may straddle two lines.
+        let d = c("vldr", "d0, [pc, #932]");
+        assert_eq!((d.cycles, d.flash_lines), (3, 2));
+        assert_eq!(c("vstr", "d8, [sp, #16]").cycles, 3);
     }
 
     #[test]
