@@ -421,6 +421,8 @@ impl App {
 
     /// Feeds one received byte. Returns the length of a command frame to send (in
     /// [`App::frame_bytes`]) when the byte completed a frame that is answered (lockstep).
+    // Out of line: the static bound of the control task (target-bench) starts here.
+    #[inline(never)]
     pub fn on_byte<C: CostCounter>(&mut self, byte: u8) -> (Option<usize>, Option<Event>) {
         // One byte's decode (tens of instructions; a frame's last byte, its whole
         // deserialisation), timed without interrupts so the figure is repeatable.
@@ -560,6 +562,8 @@ impl App {
 
     /// Free-running: `periods` control periods elapsed (at least one is due). Runs one step
     /// on the latest input and returns the length of its command frame.
+    // Out of line: the static bound of the control task (target-bench) starts here.
+    #[inline(never)]
     pub fn on_periods<C: CostCounter>(&mut self, periods: u32) -> (Option<usize>, Option<Event>) {
         if periods == 0 {
             return (None, None);

@@ -4,6 +4,8 @@
 //! cargo run --release -p host-sim --bin target-bench                 # the JSON document
 //! cargo run --release -p host-sim --bin target-bench -- --detail     # plus every workload
 //! cargo run --release -p host-sim --bin target-bench -- --check benchmarks/expected.json
+//! cargo run --release -p host-sim --bin target-bench -- --loops      # the loops and their bounds
+//! cargo run --release -p host-sim --bin target-bench -- --path-cycles BENCH_ELF # per path
 //! ```
 //!
 //! Method (`docs/benchmarks.md`):
@@ -33,19 +35,37 @@
 //! `IBVS_FIRMWARE_F405_ELF`; otherwise both are built (release, in their own target
 //! directories under the workspace's target directory, so this also runs inside `cargo test`).
 //!
-//! Static bound (when `arm-none-eabi-objdump` is installed, [`wcet`]): the longest path
-//! through `Controller::step`'s machine code in each ELF, callees included, the PBVS law
-//! excluded (the firmware flies IBVS); `step_instructions_bound`, `null` without objdump.
+//! Static bounds (when `arm-none-eabi-objdump` and `arm-none-eabi-addr2line` are installed,
+//! [`wcet`], [`cycles`], [`task`]), from each ELF's machine code, `null` when they cannot be
+//! had (the reason on stderr):
+//! - the longest path through `Controller::step`, callees included, the PBVS law excluded
+//!   (the firmware flies IBVS): `step_instructions_bound`, and in Cortex-M4 cycles at
+//!   168 MHz with 5 flash wait states, every flash access a miss: `step_cycles_bound`,
+//!   `step_us_bound`;
+//! - the whole control task, from the last byte of a measurement frame to the command frame
+//!   in the buffer handed to the UART, for the board's schedule (`qemu`: lockstep, `f405`:
+//!   free-running): the decode, the step, the gain schedule's follow-up and the encode,
+//!   their loops bounded by declared iteration counts (`task::LOOPS`): instructions
+//!   (`cycle_instructions_bound`), and cycles and microseconds with the USART1 and SysTick
+//!   interrupts that can land on it (`cycle_cycles_bound`, `cycle_us_bound`); what they
+//!   assume is under `assumptions`. `--loops` lists every loop and its bound, and fails
+//!   when one is undeclared or stale.
+//! - `--path-cycles` ([`paths`]): the cycle model applied to the step as it ran, path by path,
+//!   in the `bench` build's scripted sortie (QEMU's execution log), each within the bound.
 //!
-//! `--check FILE` compares the step's maximum instructions, its static bound (which must
-//! exist: a loop, recursion or an indirect call in the step makes it `null` and fails the
-//! check), the control-path stack and the flash of each board with the expectations in FILE
+//! `--check FILE` compares the step's maximum instructions, its static bounds (which must
+//! exist: a loop without a declared bound, recursion or an indirect call makes them `null`
+//! and fails the check), the whole control task's instruction and cycle bounds, the codec's
+//! maxima, the control-path stack and the flash of each board with the expectations in FILE
 //! (`benchmarks/expected.json`) and exits with status 1 when one grew past its expectation
-//! plus the file's tolerance, or when a figure exceeds its hard budget (the file's
-//! `budgets`: the flash, static RAM and stack targets set when the firmware was first
-//! benchmarked, docs/benchmarks.md).
+//! plus the file's tolerance, when a figure exceeds its hard budget (the file's `budgets`:
+//! the flash, static RAM and stack targets set when the firmware was first benchmarked,
+//! docs/benchmarks.md), or when a declared loop bound matches no loop (stale).
 
+mod cycles;
 mod elf;
+mod paths;
+mod task;
 mod wcet;
 
 use std::collections::BTreeMap;
@@ -93,6 +113,15 @@ struct Args {
     /// Compare with the expectations in this file; exit 1 on a regression.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
+    /// List every loop of the control task's machine code in both ELFs, with its declared
+    /// bound or `UNDECLARED` / `STALE` (for updating the table in `task.rs`), and exit.
+    #[arg(long, conflicts_with_all = ["check", "detail"])]
+    loops: bool,
+    /// Run this `qemu` ELF built with the `bench` feature in QEMU with its execution log,
+    /// cost every path of its scripted sortie's steps as they ran with the cycle model, print
+    /// the figures and exit (a development measurement: `docs/benchmarks.md`).
+    #[arg(long, value_name = "BENCH_ELF", conflicts_with_all = ["check", "detail", "loops"])]
+    path_cycles: Option<PathBuf>,
 }
 
 /// One input sequence to replay through the firmware.
@@ -279,11 +308,6 @@ fn workloads() -> Result<Vec<Workload>, Error> {
     Ok(out)
 }
 
-/// The control step's symbol, whose static bound is reported.
-const STEP_SYMBOL: &str = "ibvs_core::controller::Controller::step";
-/// The PBVS law, left out of the bound (the firmware flies IBVS).
-const PBVS_SYMBOL: &str = "ibvs_core::outer::pbvs";
-
 /// The JSON document (the per-board figures of docs/benchmarks.md, and the static bound).
 #[derive(Serialize)]
 struct Report {
@@ -300,6 +324,25 @@ struct BoardReport {
     step_instructions: Option<Spread>,
     /// The longest path through the step's machine code (`null` without objdump).
     step_instructions_bound: Option<u64>,
+    /// The step's longest path in Cortex-M4 cycles at 168 MHz, every flash access a miss
+    /// (`null` without objdump).
+    step_cycles_bound: Option<u64>,
+    /// The same in microseconds at 168 MHz.
+    step_us_bound: Option<f64>,
+    /// The schedule the control task's bound is for (the board's own).
+    schedule: Option<task::Schedule>,
+    /// The whole control task's longest path in instructions (interrupts aside).
+    cycle_instructions_bound: Option<u64>,
+    /// The whole control task in cycles, the interrupts that can land on it included.
+    cycle_cycles_bound: Option<u64>,
+    /// The same in microseconds at 168 MHz.
+    cycle_us_bound: Option<f64>,
+    /// The step and the task at zero wait states (every flash access an ART hit): not
+    /// bounds at 168 MHz, what the memory system adds.
+    step_cycles_zero_wait: Option<u64>,
+    cycle_cycles_zero_wait: Option<u64>,
+    /// What the cycle figures assume.
+    assumptions: Option<Value>,
     /// The dearest measurement frame decode.
     decode_instructions: Option<u32>,
     /// The dearest command frame encode.
@@ -492,6 +535,28 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
         ("qemu", "stack_bytes", &["stack_bytes"][..]),
         ("qemu", "flash_bytes", &["flash_bytes"][..]),
         ("f405", "flash_bytes", &["flash_bytes"][..]),
+        // The cycle bounds (wcet.rs, task.rs): the step's and the whole control task's, in
+        // cycles and microseconds at 168 MHz, and the task's instructions; each must exist
+        // (an undeclared or stale loop, an unknown instruction or an unbounded call makes it
+        // `null`, and the check fails).
+        ("qemu", "step_cycles_bound", &["step_cycles_bound"][..]),
+        ("f405", "step_cycles_bound", &["step_cycles_bound"][..]),
+        ("qemu", "step_us_bound", &["step_us_bound"][..]),
+        ("f405", "step_us_bound", &["step_us_bound"][..]),
+        (
+            "qemu",
+            "cycle_instructions_bound",
+            &["cycle_instructions_bound"][..],
+        ),
+        (
+            "f405",
+            "cycle_instructions_bound",
+            &["cycle_instructions_bound"][..],
+        ),
+        ("qemu", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
+        ("f405", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
+        ("qemu", "cycle_us_bound", &["cycle_us_bound"][..]),
+        ("f405", "cycle_us_bound", &["cycle_us_bound"][..]),
     ] {
         let want = expected[board][metric]
             .as_f64()
@@ -541,12 +606,112 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
     Ok(regressions)
 }
 
+/// A board's static analysis: the step's bound and the control task's (each `Err` with why
+/// when it could not be bounded).
+struct Static {
+    step: Result<wcet::Bound, String>,
+    task: Result<task::BoardBounds, String>,
+    schedule: task::Schedule,
+}
+
+impl Static {
+    fn of(elf: &Path, schedule: task::Schedule) -> Self {
+        match wcet::Disassembly::of(elf) {
+            Ok(d) => Self {
+                step: d.bound(
+                    task::STEP,
+                    wcet::Rules {
+                        exclude: &[task::PBVS],
+                        ..wcet::Rules::default()
+                    },
+                    wcet::Metric::Instructions,
+                ),
+                task: task::analyse(&d, schedule),
+                schedule,
+            },
+            Err(e) => Self {
+                step: Err(e.clone()),
+                task: Err(e),
+                schedule,
+            },
+        }
+    }
+
+    fn errors(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Err(e) = &self.step {
+            out.push(format!("no static bound of the step: {e}"));
+        }
+        if let Err(e) = &self.task {
+            out.push(format!("no cycle bound: {e}"));
+        }
+        out
+    }
+
+    /// The static figures of a board's report (the measured ones left empty).
+    fn report(&self) -> BoardReport {
+        let t = self.task.as_ref().ok();
+        BoardReport {
+            step_instructions: None,
+            step_instructions_bound: self.step.as_ref().ok().map(|b| b.longest_path),
+            step_cycles_bound: t.map(|t| t.step.cycles),
+            step_us_bound: t.map(|t| task::micros(t.step.cycles)),
+            schedule: Some(self.schedule),
+            cycle_instructions_bound: t.map(|t| t.task.instructions),
+            cycle_cycles_bound: t.map(|t| t.task_with_interrupts.cycles),
+            cycle_us_bound: t.map(|t| task::micros(t.task_with_interrupts.cycles)),
+            step_cycles_zero_wait: t.map(|t| t.step.cycles_zero_wait),
+            cycle_cycles_zero_wait: t.map(|t| t.task_with_interrupts.cycles_zero_wait),
+            assumptions: t.map(|_| task::assumptions(self.schedule)),
+            decode_instructions: None,
+            encode_instructions: None,
+            stack_bytes: None,
+            stack_bytes_bound: self.step.as_ref().ok().map(|b| b.stack_bytes),
+            flash_bytes: 0,
+            ram_bytes: 0,
+        }
+    }
+
+    fn detail(&self) -> Value {
+        json!({
+            "step": self.step.as_ref().map_err(String::as_str).ok(),
+            "task": self.task.as_ref().map_err(String::as_str).ok(),
+            "errors": self.errors(),
+        })
+    }
+}
+
+/// `--loops`: every loop of both ELFs' control task, declared or not.
+fn list_loops(qemu: &Path, f405: &Path) -> Result<bool, Error> {
+    let mut ok = true;
+    for (board, elf) in [("qemu", qemu), ("f405", f405)] {
+        let loops = task::list_loops(&wcet::Disassembly::of(elf)?)?;
+        for l in &loops {
+            ok &= !(l.reason == "UNDECLARED" || l.reason.starts_with("STALE"));
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "board": board, "loops": loops }))?
+        );
+    }
+    Ok(ok)
+}
+
 fn run(args: Args) -> Result<bool, Error> {
+    if let Some(elf) = &args.path_cycles {
+        let dir = pil::target_dir().join("target-bench-paths");
+        let r = paths::path_cycles(elf, &dir)?;
+        println!("{}", serde_json::to_string_pretty(&r)?);
+        return Ok(true);
+    }
     let qemu = qemu_elf(
         args.qemu_elf
             .or_else(|| std::env::var_os(pil::FIRMWARE_ELF_ENV).map(PathBuf::from)),
     )?;
     let f405 = f405_elf(args.f405_elf)?;
+    if args.loops {
+        return list_loops(&qemu, &f405);
+    }
 
     let mut all_step = Vec::new();
     let mut all_decode = Vec::new();
@@ -616,41 +781,31 @@ fn run(args: Args) -> Result<bool, Error> {
     }
     let qemu_sizes = elf::sizes(&qemu)?;
     let f405_sizes = elf::sizes(&f405)?;
-    let bound = |elf: &Path| -> Result<wcet::Bound, String> {
-        wcet::Disassembly::of(elf)?.bound(STEP_SYMBOL, &[PBVS_SYMBOL])
-    };
-    let (qemu_bound, f405_bound) = (bound(&qemu), bound(&f405));
-    for (board, b) in [("qemu", &qemu_bound), ("f405", &f405_bound)] {
-        if let Err(e) = b {
-            eprintln!("target-bench: no static bound for {board}: {e}");
+    let qemu_static = Static::of(&qemu, task::Schedule::Lockstep);
+    let f405_static = Static::of(&f405, task::Schedule::FreeRunning);
+    for (board, s) in [("qemu", &qemu_static), ("f405", &f405_static)] {
+        for e in s.errors() {
+            eprintln!("target-bench: {board}: {e}");
         }
     }
     let report = Report {
         qemu: BoardReport {
             step_instructions: Spread::of(&all_step),
-            step_instructions_bound: qemu_bound
-                .as_ref()
-                .ok()
-                .map(|b| b.longest_path_instructions),
             decode_instructions: all_decode.iter().max().copied(),
             encode_instructions: all_encode.iter().max().copied(),
             stack_bytes: (!args.no_pil).then_some(control_stack),
-            stack_bytes_bound: qemu_bound.as_ref().ok().map(|b| b.stack_bytes),
             flash_bytes: qemu_sizes.flash_bytes,
             ram_bytes: qemu_sizes.ram_bytes,
+            ..qemu_static.report()
         },
         f405: BoardReport {
             step_instructions: None,
-            step_instructions_bound: f405_bound
-                .as_ref()
-                .ok()
-                .map(|b| b.longest_path_instructions),
             decode_instructions: None,
             encode_instructions: None,
             stack_bytes: None,
-            stack_bytes_bound: f405_bound.as_ref().ok().map(|b| b.stack_bytes),
             flash_bytes: f405_sizes.flash_bytes,
             ram_bytes: f405_sizes.ram_bytes,
+            ..f405_static.report()
         },
         detail: args.detail.then(|| {
             json!({
@@ -659,8 +814,8 @@ fn run(args: Args) -> Result<bool, Error> {
                 "encode_instructions": Spread::of(&all_encode),
                 "workloads": detail,
                 "static_bound": {
-                    "qemu": qemu_bound.as_ref().map_err(String::as_str).ok(),
-                    "f405": f405_bound.as_ref().map_err(String::as_str).ok(),
+                    "qemu": qemu_static.detail(),
+                    "f405": f405_static.detail(),
                 },
                 "elves": { "qemu": qemu, "f405": f405 },
             })
@@ -668,10 +823,32 @@ fn run(args: Args) -> Result<bool, Error> {
     };
     println!("{}", serde_json::to_string_pretty(&report)?);
     let report = serde_json::to_value(&report)?;
+    // A declared loop bound no loop of either board used is stale (the code it was for is
+    // gone, or its key moved).
+    let unused = match (&qemu_static.task, &f405_static.task) {
+        (Ok(q), Ok(f)) => {
+            let used: Vec<wcet::LoopUse> = q
+                .parts
+                .iter()
+                .chain(&f.parts)
+                .flat_map(|b| b.loops.iter().cloned())
+                .collect();
+            task::unused_loop_bounds(&used)
+        }
+        _ => Vec::new(),
+    };
+    for u in &unused {
+        eprintln!("target-bench: a declared loop bound matches no loop: {u}");
+    }
     match args.check {
         None => Ok(true),
         Some(path) => {
-            let regressions = check(&report, &path)?;
+            let mut regressions = check(&report, &path)?;
+            regressions.extend(
+                unused
+                    .iter()
+                    .map(|u| format!("stale loop bound (task.rs, LOOPS): {u}")),
+            );
             for r in &regressions {
                 eprintln!("target-bench: regression: {r}");
             }
@@ -701,6 +878,11 @@ mod tests {
             json!({
                 "step_instructions": step,
                 "step_instructions_bound": bound,
+                "step_cycles_bound": 5000,
+                "step_us_bound": 29.8,
+                "cycle_instructions_bound": 20000,
+                "cycle_cycles_bound": 80000,
+                "cycle_us_bound": 476.2,
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
                 "stack_bytes": 276,
@@ -724,8 +906,21 @@ mod tests {
                 "encode_instructions": 6000,
                 "stack_bytes": 276,
                 "flash_bytes": 60000,
+                "step_cycles_bound": 5000,
+                "step_us_bound": 29.8,
+                "cycle_instructions_bound": 20000,
+                "cycle_cycles_bound": 80000,
+                "cycle_us_bound": 476.2,
             },
-            "f405": {"step_instructions_bound": 1100, "flash_bytes": 60000},
+            "f405": {
+                "step_instructions_bound": 1100,
+                "flash_bytes": 60000,
+                "step_cycles_bound": 5000,
+                "step_us_bound": 29.8,
+                "cycle_instructions_bound": 20000,
+                "cycle_cycles_bound": 80000,
+                "cycle_us_bound": 476.2,
+            },
             "budgets": {"qemu.flash_bytes": flash_budget, "f405.flash_bytes": flash_budget},
         }))
     }
@@ -777,6 +972,39 @@ mod tests {
     fn a_missing_static_bound_fails_the_check() {
         let e = expectations(65536);
         assert!(check(&report(800, None, 60000), &e.0).is_err());
+    }
+
+    #[test]
+    fn a_missing_cycle_bound_fails_the_check() {
+        let e = expectations(65536);
+        assert!(check(&report(800, Some(1100), 60000), &e.0).is_ok());
+        for key in [
+            "step_cycles_bound",
+            "step_us_bound",
+            "cycle_instructions_bound",
+            "cycle_cycles_bound",
+            "cycle_us_bound",
+        ] {
+            for board in ["qemu", "f405"] {
+                let mut r = report(800, Some(1100), 60000);
+                r[board][key] = Value::Null;
+                let e = check(&r, &e.0).expect_err(key);
+                assert!(e.to_string().contains(key), "{e}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_cycle_bound_grown_past_the_tolerance_is_a_regression() {
+        let e = expectations(65536);
+        // 2 % over 80,000 cycles is 81,600.
+        let mut r = report(800, Some(1100), 60000);
+        r["f405"]["cycle_cycles_bound"] = json!(81600);
+        assert!(check(&r, &e.0).expect("check").is_empty());
+        r["f405"]["cycle_cycles_bound"] = json!(81601);
+        let got = check(&r, &e.0).expect("check");
+        assert_eq!(got.len(), 1, "{got:?}");
+        assert!(got[0].starts_with("f405.cycle_cycles_bound"), "{got:?}");
     }
 
     #[test]
