@@ -3,8 +3,8 @@
 #
 #   0. the pinned compiler (rust-toolchain.toml);
 #   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
-#      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump, for the static
-#      bound of the control step in the benchmark gate);
+#      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump and addr2line,
+#      for the static bounds of the control step and task in the benchmark gate);
 #   2. both firmware boards cross-built (the real board is the default build, the QEMU board
 #      an explicit feature): the core links for the STM32F405 with no allocator
 #      (a use of `alloc` would fail this link);
@@ -38,7 +38,8 @@ fi
 rustup target add thumbv7em-none-eabihf
 rustup component add rustfmt clippy
 command -v flip-link >/dev/null || cargo install flip-link --locked
-if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump >/dev/null; then
+if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump >/dev/null \
+    || ! command -v arm-none-eabi-addr2line >/dev/null; then
     apt-get update
     apt-get install -y --no-install-recommends qemu-system-arm binutils-arm-none-eabi
 fi
