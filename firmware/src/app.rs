@@ -229,9 +229,9 @@ pub trait Board {
     /// Writes an applied configuration to the board's configuration store, for the next
     /// boot (`crate::store`); a board without one answers [`ConfigStorage::Unavailable`].
     fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage;
-    /// Control periods elapsed since the last call, and when the latest began. The tick
-    /// runs in both schedules, so that the loop wakes at least once a period; lockstep
-    /// takes and ignores it.
+    /// Control periods elapsed since the last call, and when the latest began. A board with
+    /// a watchdog runs the tick in both schedules, so that its loop wakes (and feeds the
+    /// watchdog) at least once a period; lockstep takes and ignores the periods.
     fn take_periods(&mut self) -> Periods;
     /// Receiver errors (hardware overrun, noise, framing; buffer overflow) since the last
     /// call.
@@ -736,12 +736,11 @@ impl App {
             }
         }
         let (d, mode_event) = self.step::<C>(&input, Some(latest.seq), status, decode);
-        if let (Some(stale), Some(mode)) = (event, mode_event) {
-            // Both: the stale link first, the mode change after it.
-            self.defer(mode);
-            event = Some(stale);
-        } else {
-            event = event.or(mode_event);
+        match (event, mode_event) {
+            // Both: the stale link first, the mode change logged after it.
+            (Some(_), Some(mode)) => self.defer(mode),
+            (None, mode) => event = mode,
+            (Some(_), None) => {}
         }
         let len = self.encode::<C>(d).map(<[u8]>::len);
         self.trigger_at = len.map(|_| ticks.last_tick_at);
@@ -854,7 +853,8 @@ impl App {
                 self.log_events(board, late);
             }
         }
-        // The tick runs in both schedules (the loop wakes every period); lockstep ignores it.
+        // Taken in both schedules (a board may tick in lockstep too, to wake the loop);
+        // lockstep ignores the periods.
         let periods = board.take_periods();
         if self.schedule == Schedule::FreeRunning {
             let (len, event) = self.on_periods::<B::Counter>(periods);
