@@ -736,11 +736,12 @@ impl App {
             }
         }
         let (d, mode_event) = self.step::<C>(&input, Some(latest.seq), status, decode);
-        match (event, mode_event) {
-            // Both: the stale link first, the mode change logged after it.
-            (Some(_), Some(mode)) => self.defer(mode),
-            (None, mode) => event = mode,
-            (Some(_), None) => {}
+        if let (Some(stale), Some(mode)) = (event, mode_event) {
+            // Both: the stale link first, the mode change after it.
+            self.defer(mode);
+            event = Some(stale);
+        } else {
+            event = event.or(mode_event);
         }
         let len = self.encode::<C>(d).map(<[u8]>::len);
         self.trigger_at = len.map(|_| ticks.last_tick_at);

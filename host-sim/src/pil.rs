@@ -245,6 +245,10 @@ pub struct PilOptions {
     pub step_timeout: Duration,
     /// Lockstep: retransmissions of a measurement frame after a timeout.
     pub retries: u32,
+    /// Wait for the report answering a configuration write: the `f405` board stores an
+    /// applied configuration before it answers, and erasing the flash sector takes up to
+    /// 4 s (firmware/README.md), much longer than a step.
+    pub config_timeout: Duration,
     /// Wait for QEMU to connect and the firmware to send its boot frame.
     pub boot_timeout: Duration,
     /// Faults to inject on the measurement frames.
@@ -260,6 +264,7 @@ impl Default for PilOptions {
             schedule: FirmwareSchedule::Lockstep,
             step_timeout: Duration::from_secs(2),
             retries: 1,
+            config_timeout: Duration::from_secs(10),
             boot_timeout: Duration::from_secs(20),
             faults: FaultPlan::new(),
             firmware_args: Vec::new(),
@@ -1034,9 +1039,9 @@ impl PilFlightComputer {
     /// Makes the firmware fly `cfg` (before the first step: the firmware takes a new
     /// configuration in standby only). Succeeds only when the firmware reports it applied
     /// exactly `cfg`; flying the default is a write too, so a run never depends on what the
-    /// firmware booted with.
+    /// firmware booted with. Waits [`PilOptions::config_timeout`] for the report.
     pub fn configure(&mut self, cfg: &ControllerConfig) -> Result<(), PilError> {
-        let r = self.link.write_config(cfg, self.opts.step_timeout)?;
+        let r = self.link.write_config(cfg, self.opts.config_timeout)?;
         if r.status != ConfigStatus::Applied {
             return Err(PilError::ConfigRefused(r.status));
         }
