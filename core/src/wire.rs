@@ -5,8 +5,8 @@
 //! Place in the data flow: measurement frames ([`Uplink`]: the step's [`ControllerInput`] and
 //! a link sequence number) come in; the firmware steps the controller and sends a command
 //! frame ([`Downlink`]: the [`ControllerOutput`], the echo of the measurement frame's sequence
-//! number, the controller's [`Counters`], the link's own [`LinkCounters`], status bits and the
-//! [`Cost`] of the step).
+//! number, the controller's [`Counters`], the link's own [`LinkCounters`], status bits, the
+//! [`Cost`] of the step, and why the flight computer last reset and what clock it runs on).
 //!
 //! # Frame layout
 //!
@@ -40,7 +40,7 @@
 //! log says which configuration flew each step.//!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 82 to 90 bytes on the wire, a command frame 141 to 337 (measured by
+//! A measurement frame is 82 to 90 bytes on the wire, a command frame 146 to 354 (measured by
 //! the tests with the largest values of every field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
@@ -66,7 +66,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 6;
+pub const PROTOCOL_VERSION: u8 = 7;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 640;
@@ -77,9 +77,9 @@ pub const MAX_FRAME_LEN: usize = 640;
 pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 4;
 
 /// Largest payload of a measurement or command frame (the frames of every step), bytes: the
-/// largest command frame's 335-byte payload with a margin (tested). Their encoder clears a
+/// largest command frame's 352-byte payload with a margin (tested). Their encoder clears a
 /// scratch buffer of this size, not of [`MAX_PAYLOAD_LEN`].
-pub const STEP_PAYLOAD_LEN: usize = 344;
+pub const STEP_PAYLOAD_LEN: usize = 360;
 
 /// Header bytes before the body: version and kind.
 pub const HEADER_LEN: usize = 2;
@@ -239,10 +239,17 @@ pub struct LinkCounters {
     pub held_steps: u32,
     /// Free-running: control periods that passed without their step (deadline missed).
     pub deadline_missed: u32,
+    /// Command frames of a step handed to the transmit queue later than the control task's
+    /// deadline after their trigger (the period tick, free-running; the measurement frame's
+    /// last byte, lockstep). The frame is still sent; this frame counts it in the next.
+    pub deadline_overruns: u32,
     /// Receiver hardware errors (overrun, noise, framing) and receive-buffer overflows.
     pub rx_errors: u32,
-    /// Command frames that could not be encoded or written (never expected; not sent).
+    /// Command frames that could not be encoded (never expected; not sent).
     pub tx_errors: u32,
+    /// Frames not sent because the transmit queue could not take them whole (never sent in
+    /// part).
+    pub tx_dropped: u32,
     /// Configuration writes applied.
     pub config_applied: u32,
     /// Configuration writes refused: invalid, malformed, or not in standby (each answered
@@ -250,6 +257,69 @@ pub struct LinkCounters {
     pub config_refused: u32,
     /// Applied configurations the board's store failed to write ([`ConfigStorage::Failed`]).
     pub config_store_failed: u32,
+    /// `Engage` requests not passed to the controller because the reset before this boot was
+    /// abnormal ([`ResetCause::needs_acknowledgement`], or a fault record) and the peer has
+    /// not yet acknowledged it with a `Reset` request.
+    pub engage_inhibited: u32,
+}
+
+/// Why the flight computer last reset, as its board read it at boot (one byte on the wire).
+/// Every command frame carries it ([`Downlink::reset_cause`]), so a peer that connects late
+/// (hardware in the loop opens the link after the boot frame) still learns it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetCause {
+    /// The board could not tell (no reset flag set, or a board that does not read them).
+    #[default]
+    Unknown,
+    /// Power-on or power-down reset: the supply came up.
+    PowerOn,
+    /// Brown-out reset: the supply fell below the brown-out level and came back.
+    BrownOut,
+    /// The reset pin (NRST) alone: a button or a debug probe.
+    Pin,
+    /// A software reset (the core's system reset request: the firmware itself, or a debug
+    /// probe's reset).
+    Software,
+    /// The independent watchdog expired: the main loop stopped completing its passes.
+    IndependentWatchdog,
+    /// The window watchdog expired.
+    WindowWatchdog,
+    /// Low-power management reset (entering Stop or Standby when the option bytes forbid it).
+    LowPower,
+}
+
+impl ResetCause {
+    /// True for a cause that is not an operator's deliberate start (a watchdog, a brown-out,
+    /// a low-power reset, or one the board could not tell): after it the flight computer
+    /// stays in standby until the peer acknowledges the reset with a `Reset` request, so a
+    /// peer that keeps asking to engage does not re-engage it unawares.
+    pub const fn needs_acknowledgement(self) -> bool {
+        matches!(
+            self,
+            Self::Unknown
+                | Self::BrownOut
+                | Self::IndependentWatchdog
+                | Self::WindowWatchdog
+                | Self::LowPower
+        )
+    }
+}
+
+/// The clock the flight computer runs on, as its board set it up at boot (one byte on the
+/// wire, [`Downlink::clock`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ClockSource {
+    /// Not reported (a board without a clock tree to set up: QEMU's).
+    #[default]
+    NotReported,
+    /// The external crystal through the PLL (the design).
+    Crystal,
+    /// The crystal did not start within the boot's bounded wait: the internal RC oscillator
+    /// through the PLL, at the same frequencies but with the RC's accuracy (about 1 %, the
+    /// serial link's timing with it).
+    InternalFallback,
 }
 
 fn bump(c: &mut u32, by: u32) {
@@ -320,6 +390,10 @@ pub struct Downlink {
     pub cost: Cost,
     /// [`config_id`] of the configuration the controller flies.
     pub config_id: u32,
+    /// Why the flight computer last reset (read at boot; the same in every frame).
+    pub reset_cause: ResetCause,
+    /// The clock it runs on (set at boot; the same in every frame).
+    pub clock: ClockSource,
 }
 
 /// A field path inside a [`ConfigReport`], with the validation's note on the rule broken
@@ -928,11 +1002,14 @@ mod tests {
             stale_steps: m,
             held_steps: m,
             deadline_missed: m,
+            deadline_overruns: m,
             rx_errors: m,
             tx_errors: m,
+            tx_dropped: m,
             config_applied: m,
             config_refused: m,
             config_store_failed: m,
+            engage_inhibited: m,
         };
         let output = ControllerOutput {
             command: ActuatorCommand::from_array([-1.0; 4]),
@@ -977,6 +1054,8 @@ mod tests {
                 encode_prev: m,
             },
             config_id: m,
+            reset_cause: ResetCause::LowPower,
+            clock: ClockSource::InternalFallback,
         }
     }
 
@@ -1084,7 +1163,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, frame.len()),
-            (82, 90, 141, 337),
+            (82, 90, 146, 354),
             "update the module doc"
         );
     }

@@ -4,10 +4,11 @@
 //! Place in the data flow: bytes from the link go one at a time through the core's streaming
 //! [`FrameDecoder`]; an accepted measurement frame ([`Uplink`]) feeds [`Controller::step`];
 //! the step's output, the counters and the step's cost go back as a command frame
-//! ([`Downlink`]). The board (`crate::board`, bare metal only) supplies the link (embedded-io
-//! [`Read`] + [`ReadReady`] + [`Write`]), a cost counter ([`CostCounter`]), the control-period
-//! ticks and the idle wait, through the [`Board`] trait; this module never touches hardware
-//! and is unit-tested on the host.
+//! ([`Downlink`]). The board (`crate::board`, bare metal only) supplies the receive side of
+//! the link (embedded-io [`Read`] + [`ReadReady`]), a transmit queue that takes a whole frame
+//! without waiting ([`Board::transmit`]), a cost counter ([`CostCounter`]), the
+//! control-period ticks, the watchdog and the idle wait, through the [`Board`] trait; this
+//! module never touches hardware and is unit-tested on the host.
 //!
 //! Two schedules ([`Schedule`]):
 //! - **Lockstep** (simulation, processor-in-the-loop): every new measurement frame runs one
@@ -36,26 +37,58 @@
 //! done, the configuration flown and its id); the id is in every command frame after it.
 //!
 //! Every rejected byte sequence is counted in [`LinkCounters`] (by the core's
-//! [`LinkCounters::count`]) and so reported in the next command frame.
+//! [`LinkCounters::count`]) and so reported in the next command frame; so is every frame the
+//! transmit queue could not take whole ([`LinkCounters::tx_dropped`]: dropped, never sent in
+//! part).
+//!
+//! # The control task's deadline
+//!
+//! The command frame of every step is handed to the transmit queue within
+//! [`CONTROL_DEADLINE_S`] (1 ms) of the step's trigger: the period tick (free-running; the
+//! board's timer interrupt stamps it with the cost counter, [`Periods::last_tick_at`]) or
+//! the start of the decode of the measurement frame's last byte (lockstep). The window holds
+//! the rest of the loop's pass before the step (bytes waiting in the receive queue), the
+//! step, the gain schedule's follow-up, the encoding and the copy into the transmit queue;
+//! the logging comes after it. Each step is measured against it in the board's cost counter
+//! ([`CostCounter::DEADLINE`]: 168,000 cycles at 168 MHz on the `f405` board; 168,000
+//! instructions under QEMU, where an instruction takes at least one cycle, so an overrun
+//! counted there is one on the board too); an overrun is counted
+//! ([`LinkCounters::deadline_overruns`], in the next frame) and logged, and the frame is still
+//! sent. Whole periods without their step are the other counter,
+//! [`LinkCounters::deadline_missed`]. By design only a configuration write (in standby: the
+//! flash erase stalls the CPU for seconds) overruns.
+//!
+//! # After a reset
+//!
+//! The application starts in standby with the trim commands whatever the reset, and every
+//! frame says why the board reset and which clock it runs on ([`BootReport`]). After an
+//! abnormal reset ([`BootReport::needs_acknowledgement`]: a watchdog, a brown-out, a fault
+//! record) it passes no `Engage` request to the controller (each one counted,
+//! [`LinkCounters::engage_inhibited`], the first logged) until the peer sends a `Reset`
+//! request, which acknowledges the reset (logged): it is never re-engaged automatically.
 //!
 //! Invariants: nothing here panics or allocates for any byte sequence (tested on the host
-//! with a pseudo-random byte stream; the decoder underneath is property-tested in the core);
-//! every command sent is the core's (finite, inside the actuator limits) or the trim.
+//! with a pseudo-random byte stream; the decoder underneath is property-tested in the core;
+//! the no-panic link check covers [`App::run`]); every command sent is the core's (finite,
+//! inside the actuator limits) or the trim.
 
-use embedded_io::{Read, ReadReady, Write};
+use embedded_io::{Read, ReadReady};
 use ibvs_core::actuator::ActuatorCommand;
 use ibvs_core::config::trim_command;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit, Downlink, FrameDecoder, FrameKind,
-    LinkCounters, LinkStatus, MAX_FRAME_LEN, PeerMessage, Uplink, WireError, config_id,
-    encode_config_report, encode_downlink,
+    ClockSource, ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit, Downlink, FrameDecoder,
+    FrameKind, LinkCounters, LinkStatus, MAX_FRAME_LEN, PeerMessage, ResetCause, Uplink, WireError,
+    config_id, encode_config_report, encode_downlink,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
     Mode, ModeRequest,
 };
+
+pub use crate::boot::BootReport;
+pub use crate::serial::QueueFull;
 
 /// How control steps are triggered (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -72,11 +105,31 @@ pub enum Schedule {
 /// hold-then-breakaway logic still decides when to break away (`MeasurementLost`).
 pub const LINK_TIMEOUT_PERIODS: u32 = 5;
 
+/// The control task's deadline, seconds: from a step's trigger to its command frame handed
+/// to the transmit queue (module doc, "The control task's deadline"). 5 % of the 20 ms
+/// period, so the frame (up to 354 bytes, 3.8 ms at 921,600 baud) is on the wire by a
+/// quarter of the period. The window's parts, each at its maximum measured under QEMU
+/// (a measurement frame's decode 4,330 instructions, the step 2,595, the schedule's
+/// follow-up 6,881, the encoding 6,728), add up to about 21,000 instructions, an eighth of
+/// it; the whole pass is not measured as one figure, only checked against the deadline.
+pub const CONTROL_DEADLINE_S: f32 = 1e-3;
+
+/// Control periods the board's timer counted, and when the latest one began.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Periods {
+    /// Periods elapsed since the last call (0: none due).
+    pub count: u32,
+    /// The cost counter ([`CostCounter::now`]) at the latest period's tick.
+    pub last_tick_at: u32,
+}
+
 /// A free-running counter read to measure costs (instructions under QEMU, cycles on
 /// hardware); wraps.
 pub trait CostCounter {
     /// What one count is.
     const UNIT: CostUnit;
+    /// [`CONTROL_DEADLINE_S`] in counts.
+    const DEADLINE: u32;
     /// The counter now.
     fn now() -> u32;
     /// Runs `f`; returns its result and, on boards that measure it, the stack `f` used below
@@ -103,6 +156,8 @@ pub struct NoCounter;
 
 impl CostCounter for NoCounter {
     const UNIT: CostUnit = CostUnit::Unavailable;
+    /// Nothing is measured (every reading is 0), so nothing overruns.
+    const DEADLINE: u32 = u32::MAX;
     fn now() -> u32 {
         0
     }
@@ -138,24 +193,52 @@ pub enum Event {
         /// Controller step number.
         step: u32,
     },
+    /// A step's command frame reached the transmit queue after the deadline
+    /// ([`CONTROL_DEADLINE_S`]).
+    DeadlineOverrun {
+        /// From the trigger to the frame queued, in the cost counter's unit.
+        elapsed: u32,
+        /// The deadline in the same unit ([`CostCounter::DEADLINE`]).
+        deadline: u32,
+        /// Controller step number.
+        step: u32,
+    },
+    /// The first `Engage` request after an abnormal reset was not passed on: the peer must
+    /// acknowledge the reset with a `Reset` request first (later ones are only counted).
+    EngageInhibited {
+        /// Why the board reset.
+        cause: ResetCause,
+    },
+    /// The peer acknowledged the abnormal reset (a `Reset` request): `Engage` is passed on
+    /// again.
+    ResetAcknowledged,
 }
 
 /// What the application needs from a board.
 pub trait Board {
-    /// The serial link to the peer.
-    type Link: Read + ReadReady + Write;
+    /// The receive side of the serial link to the peer.
+    type Link: Read + ReadReady;
     /// The cost counter.
     type Counter: CostCounter;
-    /// The link.
+    /// The link's receive side.
     fn link(&mut self) -> &mut Self::Link;
+    /// Hands a whole frame to the link's transmit queue and returns at once (the board sends
+    /// it in the background); [`QueueFull`] when the queue cannot take all of it, and then
+    /// none of it is sent.
+    fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull>;
     /// Writes an applied configuration to the board's configuration store, for the next
     /// boot (`crate::store`); a board without one answers [`ConfigStorage::Unavailable`].
     fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage;
-    /// Free-running: control periods elapsed since the last call (0: none due).
-    fn take_periods(&mut self) -> u32;
+    /// Control periods elapsed since the last call, and when the latest began. A board with
+    /// a watchdog runs the tick in both schedules, so that its loop wakes (and feeds the
+    /// watchdog) at least once a period; lockstep takes and ignores the periods.
+    fn take_periods(&mut self) -> Periods;
     /// Receiver errors (hardware overrun, noise, framing; buffer overflow) since the last
     /// call.
     fn take_rx_errors(&mut self) -> u32;
+    /// The main loop completed a pass (every byte received so far handled, a due period
+    /// stepped): the board feeds its watchdog here, and only here.
+    fn pass_completed(&mut self);
     /// Sleeps until something may be pending (an interrupt), or returns at once.
     fn wait_for_event(&mut self);
     /// Logs an event.
@@ -210,19 +293,6 @@ pub fn safe_frame(buf: &mut [u8; MAX_FRAME_LEN + 1]) -> Option<&[u8]> {
     buf.get(..=n)
 }
 
-/// Writes all of `frame` and flushes. Unlike embedded-io's `write_all`, which panics when a
-/// write returns `Ok(0)`, a write that takes nothing (or claims more than it was given) is
-/// an error here, for the caller to count: no panic path on the flight loop.
-fn write_frame<W: Write>(link: &mut W, mut frame: &[u8]) -> Result<(), ()> {
-    while !frame.is_empty() {
-        match link.write(frame) {
-            Ok(n) if n > 0 && n <= frame.len() => frame = &frame[n..],
-            _ => return Err(()),
-        }
-    }
-    link.flush().map_err(|_| ())
-}
-
 /// The application state: the controller and both ends of the link protocol.
 #[derive(Debug, Clone)]
 pub struct App {
@@ -249,10 +319,21 @@ pub struct App {
     base_status: u8,
     /// Status bits of the boot frame only (the configuration's origin).
     boot_status: u8,
+    /// What the board found at reset (in every frame).
+    reset_cause: ResetCause,
+    clock: ClockSource,
+    /// After an abnormal reset: `Engage` requests are held back until a `Reset` request.
+    awaiting_acknowledgement: bool,
+    /// The first held-back `Engage` was logged.
+    inhibit_logged: bool,
+    /// When the trigger of the step whose frame is being sent happened (cost counter).
+    trigger_at: Option<u32>,
     /// Largest stack a control step used (boards that measure it), bytes.
     control_stack_max: u32,
-    /// An event to log after the current one (a new control-stack maximum).
-    pending: Option<Event>,
+    /// Events to log after the one [`App::on_byte`] or [`App::on_periods`] returned (a new
+    /// control-stack maximum; a held-back `Engage` or its acknowledgement): at most two come
+    /// from one step.
+    pending: [Option<Event>; 2],
     /// [`config_id`] of the controller's configuration.
     config_id: u32,
     /// An applied configuration the board is still to store (then the report is sent).
@@ -261,19 +342,21 @@ pub struct App {
 }
 
 impl App {
-    /// The application in standby, before the boot frame, flying `stored` (the board's
-    /// stored configuration, if it has a valid one) or else the built-in default; the boot
-    /// frame says which ([`LinkStatus::STORED_CONFIG`]).
+    /// The application in standby, before the boot frame, after the reset the board
+    /// describes (`boot`: its cause and the clock go in every frame, a fault record sets
+    /// [`LinkStatus::PREVIOUS_PANIC`]), flying `stored` (the board's stored configuration,
+    /// if it has a valid one) or else the built-in default; the boot frame says which
+    /// ([`LinkStatus::STORED_CONFIG`]).
     pub fn new(
         schedule: Schedule,
-        previous_panic: bool,
+        boot: BootReport,
         stored: Option<ControllerConfig>,
     ) -> Result<Self, ConfigError> {
         let mut base_status = 0;
         if schedule == Schedule::FreeRunning {
             base_status |= LinkStatus::FREE_RUNNING;
         }
-        if previous_panic {
+        if boot.previous_fault {
             base_status |= LinkStatus::PREVIOUS_PANIC;
         }
         // A stored configuration was validated when it was loaded; one that fails here all
@@ -296,6 +379,11 @@ impl App {
             config_id: config_id(&cfg),
             to_persist: None,
             boot_status,
+            reset_cause: boot.reset_cause,
+            clock: boot.clock,
+            awaiting_acknowledgement: boot.needs_acknowledgement(),
+            inhibit_logged: false,
+            trigger_at: None,
             schedule,
             decoder: FrameDecoder::new(),
             link: LinkCounters::default(),
@@ -311,7 +399,7 @@ impl App {
             last: Downlink::default(),
             base_status,
             control_stack_max: 0,
-            pending: None,
+            pending: [None; 2],
             buf: [0; MAX_FRAME_LEN],
         })
     }
@@ -358,6 +446,8 @@ impl App {
                 ..cost
             },
             config_id: self.config_id,
+            reset_cause: self.reset_cause,
+            clock: self.clock,
         }
     }
 
@@ -393,6 +483,14 @@ impl App {
         decode: u32,
     ) -> (Downlink, Option<Event>) {
         let before = self.controller.mode();
+        let gated;
+        let input = match self.gate_request(input.request) {
+            Some(request) => {
+                gated = ControllerInput { request, ..*input };
+                &gated
+            }
+            None => input,
+        };
         let (out, step, stack) = control_step::<C>(&mut self.controller, input);
         // The gain schedule's follow-up, outside the step's timed window (a new flight
         // condition is flown from the next step; `Controller::follow_schedule`).
@@ -401,7 +499,7 @@ impl App {
             && bytes > self.control_stack_max
         {
             self.control_stack_max = bytes;
-            self.pending = Some(Event::ControlStack {
+            self.defer(Event::ControlStack {
                 bytes,
                 step: out.step,
             });
@@ -419,6 +517,41 @@ impl App {
         (self.frame::<C>(echo_seq, status, out, cost), event)
     }
 
+    /// After an abnormal reset not yet acknowledged: the request to pass to the controller
+    /// instead of `request` (`Engage` held back and counted; `Reset` acknowledges and is
+    /// passed on); `None` to pass it unchanged.
+    fn gate_request(&mut self, request: ModeRequest) -> Option<ModeRequest> {
+        if !self.awaiting_acknowledgement {
+            return None;
+        }
+        match request {
+            ModeRequest::Engage => {
+                self.link.engage_inhibited = self.link.engage_inhibited.saturating_add(1);
+                if !self.inhibit_logged {
+                    self.inhibit_logged = true;
+                    self.defer(Event::EngageInhibited {
+                        cause: self.reset_cause,
+                    });
+                }
+                Some(ModeRequest::None)
+            }
+            ModeRequest::Reset => {
+                self.awaiting_acknowledgement = false;
+                self.defer(Event::ResetAcknowledged);
+                None
+            }
+            ModeRequest::None | ModeRequest::Abort => None,
+        }
+    }
+
+    /// Keeps an event to log after the current one (two slots: a step defers at most two;
+    /// a third would replace the second).
+    fn defer(&mut self, event: Event) {
+        match &mut self.pending {
+            [slot @ None, _] | [Some(_), slot] => *slot = Some(event),
+        }
+    }
+
     /// Feeds one received byte. Returns the length of a command frame to send (in
     /// [`App::frame_bytes`]) when the byte completed a frame that is answered (lockstep).
     // Out of line: the static bound of the control task (target-bench) starts here.
@@ -427,12 +560,12 @@ impl App {
         // One byte's decode (tens of instructions; a frame's last byte, its whole
         // deserialisation), timed without interrupts so the figure is repeatable.
         let decoder = &mut self.decoder;
-        let (result, spent) = C::uninterrupted(|| {
+        let (result, t0, spent) = C::uninterrupted(|| {
             let t0 = C::now();
             let r = decoder
                 .feed(byte)
                 .map(|r| r.map(|p| (p.kind, p.peer_message())));
-            (r, C::now().wrapping_sub(t0))
+            (r, t0, C::now().wrapping_sub(t0))
         });
         self.decode_acc = self.decode_acc.saturating_add(spent);
         let Some(result) = result else {
@@ -440,7 +573,7 @@ impl App {
         };
         let decode = core::mem::take(&mut self.decode_acc);
         match result {
-            Ok((_, Ok(PeerMessage::Measurement(up)))) => self.accept::<C>(up, decode),
+            Ok((_, Ok(PeerMessage::Measurement(up)))) => self.accept::<C>(up, decode, t0),
             Ok((_, Ok(PeerMessage::ConfigWrite(cfg)))) => self.configure(Ok(cfg)),
             Ok((_, Ok(PeerMessage::ConfigRead))) => {
                 self.report(ConfigStatus::Active, ConfigStorage::NotWritten)
@@ -520,10 +653,12 @@ impl App {
         }
     }
 
+    /// A measurement frame whose last byte began decoding at `arrived` (cost counter).
     fn accept<C: CostCounter>(
         &mut self,
         up: Uplink,
         decode: u32,
+        arrived: u32,
     ) -> (Option<usize>, Option<Event>) {
         let check = self.rx_seq.observe(up.seq);
         let new = self.link.count_sequence(check);
@@ -531,7 +666,9 @@ impl App {
             (Schedule::Lockstep, true) => {
                 self.latest = Some(up);
                 let (d, event) = self.step::<C>(&up.input, Some(up.seq), 0, decode);
-                (self.encode::<C>(d).map(<[u8]>::len), event)
+                let len = self.encode::<C>(d).map(<[u8]>::len);
+                self.trigger_at = len.map(|_| arrived);
+                (len, event)
             }
             (Schedule::Lockstep, false) if self.last.echo_seq == Some(up.seq) => {
                 let mut d = self.last;
@@ -560,11 +697,13 @@ impl App {
         }
     }
 
-    /// Free-running: `periods` control periods elapsed (at least one is due). Runs one step
-    /// on the latest input and returns the length of its command frame.
+    /// Free-running: `ticks.count` control periods elapsed (at least one is due). Runs one
+    /// step on the latest input and returns the length of its command frame, due
+    /// [`CONTROL_DEADLINE_S`] after `ticks.last_tick_at`.
     // Out of line: the static bound of the control task (target-bench) starts here.
     #[inline(never)]
-    pub fn on_periods<C: CostCounter>(&mut self, periods: u32) -> (Option<usize>, Option<Event>) {
+    pub fn on_periods<C: CostCounter>(&mut self, ticks: Periods) -> (Option<usize>, Option<Event>) {
+        let periods = ticks.count;
         if periods == 0 {
             return (None, None);
         }
@@ -572,7 +711,9 @@ impl App {
         let Some(latest) = self.latest else {
             // No measurement frame yet: standby trim, no step.
             let d = self.frame::<C>(None, LinkStatus::STALE, trim_output(), Cost::default());
-            return (self.encode::<C>(d).map(<[u8]>::len), None);
+            let len = self.encode::<C>(d).map(<[u8]>::len);
+            self.trigger_at = len.map(|_| ticks.last_tick_at);
+            return (len, None);
         };
         let mut input = latest.input;
         let mut status = 0;
@@ -599,13 +740,28 @@ impl App {
             }
         }
         let (d, mode_event) = self.step::<C>(&input, Some(latest.seq), status, decode);
-        (self.encode::<C>(d).map(<[u8]>::len), event.or(mode_event))
+        if let (Some(stale), Some(mode)) = (event, mode_event) {
+            // Both: the stale link first, the mode change after it.
+            self.defer(mode);
+            event = Some(stale);
+        } else {
+            event = event.or(mode_event);
+        }
+        let len = self.encode::<C>(d).map(<[u8]>::len);
+        self.trigger_at = len.map(|_| ticks.last_tick_at);
+        (len, event)
     }
 
-    /// An event left to log after the one [`App::on_byte`] or [`App::on_periods`] returned
-    /// (a new control-stack maximum).
+    /// An event left to log after the one [`App::on_byte`] or [`App::on_periods`] returned.
     pub fn take_pending_event(&mut self) -> Option<Event> {
-        self.pending.take()
+        match &mut self.pending {
+            [first @ Some(_), second] => {
+                let e = first.take();
+                *first = second.take();
+                e
+            }
+            [None, second] => second.take(),
+        }
     }
 
     /// The frame buffer: the first `len` bytes are the frame [`App::on_byte`] or
@@ -614,12 +770,25 @@ impl App {
         &self.buf[..len.min(MAX_FRAME_LEN)]
     }
 
-    /// Writes the first `len` bytes of the frame buffer to the link; a failure is counted.
-    fn send<B: Board>(&mut self, board: &mut B, len: usize) {
+    /// Hands the first `len` bytes of the frame buffer to the transmit queue (a frame it
+    /// cannot take whole is dropped and counted). For a step's frame, then checks the
+    /// deadline: an overrun is counted and returned, to log.
+    fn send<B: Board>(&mut self, board: &mut B, len: usize) -> Option<Event> {
         let frame = &self.buf[..len.min(MAX_FRAME_LEN)];
-        if write_frame(board.link(), frame).is_err() {
-            self.link.tx_errors = self.link.tx_errors.saturating_add(1);
+        if board.transmit(frame).is_err() {
+            self.link.tx_dropped = self.link.tx_dropped.saturating_add(1);
         }
+        let trigger = self.trigger_at.take()?;
+        let elapsed = B::Counter::now().wrapping_sub(trigger);
+        if elapsed <= B::Counter::DEADLINE {
+            return None;
+        }
+        self.link.deadline_overruns = self.link.deadline_overruns.saturating_add(1);
+        Some(Event::DeadlineOverrun {
+            elapsed,
+            deadline: B::Counter::DEADLINE,
+            step: self.last.output.step,
+        })
     }
 
     /// Sends the boot frame.
@@ -629,8 +798,20 @@ impl App {
         }
     }
 
-    /// Services the link once: every byte available (answering frames in lockstep), then a
-    /// due control period (free-running). Returns the number of command frames sent.
+    /// Logs `first` (an event a frame's handling returned) and every event deferred.
+    fn log_events<B: Board>(&mut self, board: &mut B, first: Option<Event>) {
+        if let Some(e) = first {
+            board.log(e);
+        }
+        while let Some(e) = self.take_pending_event() {
+            board.log(e);
+        }
+    }
+
+    /// Services the link once: every byte available (answering frames in lockstep), then the
+    /// periods the tick counted (a due step, free-running; taken and ignored, lockstep).
+    /// Returns the number of frames handed to the transmit queue (one it refused included:
+    /// counted in `tx_dropped`).
     pub fn poll<B: Board>(&mut self, board: &mut B) -> u32 {
         let mut sent = 0;
         let errors = board.take_rx_errors();
@@ -656,9 +837,6 @@ impl App {
             };
             for &b in &chunk[..n.min(chunk.len())] {
                 let (len, event) = self.on_byte::<B::Counter>(b);
-                for e in event.into_iter().chain(self.take_pending_event()) {
-                    board.log(e);
-                }
                 // An applied configuration: stored first (in standby; the store's time is
                 // the board's), then answered with the outcome.
                 let len = match self.take_to_persist() {
@@ -668,31 +846,43 @@ impl App {
                     }
                     None => len,
                 };
-                if let Some(len) = len {
-                    self.send(board, len);
-                    sent += 1;
-                }
+                // The frame first, then the logs (outside the deadline's window).
+                let late = match len {
+                    Some(len) => {
+                        sent += 1;
+                        self.send(board, len)
+                    }
+                    None => None,
+                };
+                self.log_events(board, event);
+                self.log_events(board, late);
             }
         }
+        // Taken in both schedules (a board may tick in lockstep too, to wake the loop);
+        // lockstep ignores the periods.
+        let periods = board.take_periods();
         if self.schedule == Schedule::FreeRunning {
-            let periods = board.take_periods();
             let (len, event) = self.on_periods::<B::Counter>(periods);
-            for e in event.into_iter().chain(self.take_pending_event()) {
-                board.log(e);
-            }
-            if let Some(len) = len {
-                self.send(board, len);
-                sent += 1;
-            }
+            let late = match len {
+                Some(len) => {
+                    sent += 1;
+                    self.send(board, len)
+                }
+                None => None,
+            };
+            self.log_events(board, event);
+            self.log_events(board, late);
         }
         sent
     }
 
-    /// The main loop: boot frame, then poll and sleep forever.
+    /// The main loop: boot frame, then poll, report the pass complete (the watchdog is fed)
+    /// and sleep, forever.
     pub fn run<B: Board>(mut self, board: &mut B) -> ! {
         self.boot(board);
         loop {
             self.poll(board);
+            board.pass_completed();
             board.wait_for_event();
         }
     }
@@ -748,17 +938,71 @@ mod tests {
         assert!(bad.len() == 1 && bad[0].is_err(), "{bad:?}");
     }
 
-    /// An in-memory board: bytes in, frames out, periods on demand.
-    #[derive(Default)]
-    struct Mock {
+    /// An in-memory board: bytes in, frames out, periods on demand; its cost counter `C`.
+    struct Mock<C = NoCounter> {
         rx: VecDeque<u8>,
         tx: Vec<u8>,
+        /// The transmit queue's free room, bytes (`None`: unbounded): a longer frame is
+        /// refused.
+        tx_room: Option<usize>,
         periods: u32,
+        /// The counter's reading at the latest tick.
+        tick_at: u32,
         rx_errors: u32,
         events: Vec<Event>,
         /// What `persist` was asked to store, and what it answers.
         stored: Vec<ControllerConfig>,
         storage: ConfigStorage,
+        passes: u32,
+        _counter: core::marker::PhantomData<C>,
+    }
+
+    impl<C> Default for Mock<C> {
+        fn default() -> Self {
+            Self {
+                rx: VecDeque::new(),
+                tx: Vec::new(),
+                tx_room: None,
+                periods: 0,
+                tick_at: 0,
+                rx_errors: 0,
+                events: Vec::new(),
+                stored: Vec::new(),
+                storage: ConfigStorage::default(),
+                passes: 0,
+                _counter: core::marker::PhantomData,
+            }
+        }
+    }
+
+    std::thread_local! {
+        /// The [`Clock`] counter's reading, and how much each reading advances it.
+        static CLOCK: core::cell::Cell<(u32, u32)> = const { core::cell::Cell::new((0, 0)) };
+    }
+
+    /// A cost counter the test drives: each reading advances it by a set stride (a slow
+    /// MCU), and the test can set it; its deadline is 10,000 counts.
+    struct Clock;
+
+    impl Clock {
+        fn set(now: u32, stride: u32) {
+            CLOCK.with(|c| c.set((now, stride)));
+        }
+        fn peek() -> u32 {
+            CLOCK.with(|c| c.get().0)
+        }
+    }
+
+    impl CostCounter for Clock {
+        const UNIT: CostUnit = CostUnit::Cycles;
+        const DEADLINE: u32 = 10_000;
+        fn now() -> u32 {
+            CLOCK.with(|c| {
+                let (now, stride) = c.get();
+                c.set((now.wrapping_add(stride), stride));
+                now
+            })
+        }
     }
 
     #[derive(Debug)]
@@ -778,11 +1022,11 @@ mod tests {
         }
     }
 
-    impl embedded_io::ErrorType for Mock {
+    impl<C> embedded_io::ErrorType for Mock<C> {
         type Error = MockError;
     }
 
-    impl Read for Mock {
+    impl<C> Read for Mock<C> {
         fn read(&mut self, buf: &mut [u8]) -> Result<usize, MockError> {
             let n = buf.len().min(self.rx.len());
             for (slot, b) in buf.iter_mut().zip(self.rx.drain(..n)) {
@@ -792,33 +1036,36 @@ mod tests {
         }
     }
 
-    impl ReadReady for Mock {
+    impl<C> ReadReady for Mock<C> {
         fn read_ready(&mut self) -> Result<bool, MockError> {
             Ok(!self.rx.is_empty())
         }
     }
 
-    impl Write for Mock {
-        fn write(&mut self, buf: &[u8]) -> Result<usize, MockError> {
-            self.tx.extend_from_slice(buf);
-            Ok(buf.len())
-        }
-        fn flush(&mut self) -> Result<(), MockError> {
-            Ok(())
-        }
-    }
-
-    impl Board for Mock {
+    impl<C: CostCounter> Board for Mock<C> {
         type Link = Self;
-        type Counter = NoCounter;
+        type Counter = C;
         fn link(&mut self) -> &mut Self {
             self
         }
-        fn take_periods(&mut self) -> u32 {
-            core::mem::take(&mut self.periods)
+        fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
+            if self.tx_room.is_some_and(|room| frame.len() > room) {
+                return Err(QueueFull);
+            }
+            self.tx.extend_from_slice(frame);
+            Ok(())
+        }
+        fn take_periods(&mut self) -> Periods {
+            Periods {
+                count: core::mem::take(&mut self.periods),
+                last_tick_at: self.tick_at,
+            }
         }
         fn take_rx_errors(&mut self) -> u32 {
             core::mem::take(&mut self.rx_errors)
+        }
+        fn pass_completed(&mut self) {
+            self.passes += 1;
         }
         fn wait_for_event(&mut self) {}
         fn log(&mut self, event: Event) {
@@ -830,7 +1077,7 @@ mod tests {
         }
     }
 
-    impl Mock {
+    impl<C: CostCounter> Mock<C> {
         fn send(&mut self, seq: u32, input: ControllerInput) {
             let mut buf = [0u8; MAX_FRAME_LEN];
             let f = encode_uplink(&Uplink { seq, input }, &mut buf).expect("fits");
@@ -893,8 +1140,8 @@ mod tests {
     }
 
     fn lockstep() -> (App, Mock) {
-        let mut app = App::new(Schedule::Lockstep, false, None).expect("config");
-        let mut board = Mock::default();
+        let mut app = App::new(Schedule::Lockstep, BootReport::power_on(), None).expect("config");
+        let mut board: Mock = Mock::default();
         app.boot(&mut board);
         (app, board)
     }
@@ -1062,16 +1309,18 @@ mod tests {
         );
 
         // The next boot with what the store holds: flown, and the boot frame says so.
-        let mut app = App::new(Schedule::Lockstep, false, Some(next)).expect("valid");
-        let mut board = Mock::default();
+        let mut app =
+            App::new(Schedule::Lockstep, BootReport::power_on(), Some(next)).expect("valid");
+        let mut board: Mock = Mock::default();
         app.boot(&mut board);
         let boot = board.frames();
         assert!(boot[0].link_status.contains(LinkStatus::STORED_CONFIG));
         assert_eq!(boot[0].config_id, config_id(&next));
         // Without one (or with one that does not validate), the default, and no bit.
         for stored in [None, Some(bad)] {
-            let mut app = App::new(Schedule::Lockstep, false, stored).expect("default");
-            let mut board = Mock::default();
+            let mut app =
+                App::new(Schedule::Lockstep, BootReport::power_on(), stored).expect("default");
+            let mut board: Mock = Mock::default();
             app.boot(&mut board);
             let boot = board.frames();
             assert!(!boot[0].link_status.contains(LinkStatus::STORED_CONFIG));
@@ -1135,41 +1384,231 @@ mod tests {
         );
     }
 
-    /// A link whose write takes `per_call` bytes at most (0: none).
-    struct Stingy {
-        per_call: usize,
-        got: Vec<u8>,
-    }
-    impl embedded_io::ErrorType for Stingy {
-        type Error = core::convert::Infallible;
-    }
-    impl Write for Stingy {
-        fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
-            let n = buf.len().min(self.per_call);
-            self.got.extend_from_slice(&buf[..n]);
-            Ok(n)
+    #[test]
+    fn every_frame_says_why_the_board_reset_and_which_clock_it_runs_on() {
+        let boot = BootReport {
+            reset_cause: ResetCause::BrownOut,
+            clock: ClockSource::InternalFallback,
+            previous_fault: false,
+        };
+        let mut app = App::new(Schedule::Lockstep, boot, None).expect("config");
+        let mut board: Mock = Mock::default();
+        app.boot(&mut board);
+        board.send(1, input(1, ModeRequest::None));
+        app.poll(&mut board);
+        let f = board.frames();
+        assert_eq!(f.len(), 2);
+        for d in &f {
+            assert_eq!(
+                (d.reset_cause, d.clock),
+                (ResetCause::BrownOut, ClockSource::InternalFallback)
+            );
+            assert!(!d.link_status.contains(LinkStatus::PREVIOUS_PANIC));
         }
-        fn flush(&mut self) -> Result<(), Self::Error> {
-            Ok(())
+        // The qemu board's report: a power-on, no clock to report.
+        let (_, mut board) = lockstep();
+        let f = board.frames();
+        assert_eq!(
+            (f[0].reset_cause, f[0].clock),
+            (ResetCause::PowerOn, ClockSource::NotReported)
+        );
+    }
+
+    /// Sends frame `seq` with `request` and runs the pass that answers it (lockstep) or the
+    /// period after it (free-running); the one command frame sent.
+    fn exchange(app: &mut App, board: &mut Mock, seq: u32, request: ModeRequest) -> Downlink {
+        board.send(seq, input(seq, request));
+        if app.schedule() == Schedule::FreeRunning {
+            board.periods = 1;
         }
+        assert_eq!(app.poll(board), 1);
+        let f = board.frames();
+        assert_eq!(f.len(), 1);
+        f[0]
     }
 
     #[test]
-    fn a_frame_is_written_whole_in_pieces_and_a_write_that_takes_nothing_is_an_error() {
-        let frame: Vec<u8> = (1..=200).collect();
-        let mut link = Stingy {
-            per_call: 7,
-            got: Vec::new(),
+    fn after_a_watchdog_reset_it_stays_in_standby_until_the_peer_acknowledges() {
+        let trim = trim_command();
+        let after_watchdog = BootReport {
+            reset_cause: ResetCause::IndependentWatchdog,
+            clock: ClockSource::Crystal,
+            previous_fault: false,
         };
-        assert_eq!(write_frame(&mut link, &frame), Ok(()));
-        assert_eq!(link.got, frame);
-        // embedded-io's write_all would panic here; this returns an error to count.
-        let mut stuck = Stingy {
-            per_call: 0,
-            got: Vec::new(),
+        // A fault record before an ordinary reset counts as abnormal too.
+        let after_fault = BootReport {
+            reset_cause: ResetCause::Software,
+            previous_fault: true,
+            ..after_watchdog
         };
-        assert_eq!(write_frame(&mut stuck, &frame), Err(()));
-        assert_eq!(write_frame(&mut stuck, &[]), Ok(()), "nothing to write");
+        for (schedule, boot) in [
+            (Schedule::Lockstep, after_watchdog),
+            (Schedule::FreeRunning, after_watchdog),
+            (Schedule::Lockstep, after_fault),
+        ] {
+            let mut app = App::new(schedule, boot, None).expect("config");
+            let mut board: Mock = Mock::default();
+            app.boot(&mut board);
+            let b = board.frames()[0];
+            assert!(b.link_status.contains(LinkStatus::BOOT));
+            assert_eq!(
+                (b.output.mode, b.reset_cause),
+                (Mode::Standby, boot.reset_cause)
+            );
+            assert_eq!(b.output.command.as_array(), trim);
+            assert_eq!(
+                b.link_status.contains(LinkStatus::PREVIOUS_PANIC),
+                boot.previous_fault
+            );
+            // A peer that asks to engage in every frame while it sees standby, as the
+            // simulator's does: held back, counted, logged once.
+            for seq in 1..=5 {
+                let d = exchange(&mut app, &mut board, seq, ModeRequest::Engage);
+                assert_eq!(d.output.mode, Mode::Standby, "{schedule:?} frame {seq}");
+                assert_eq!(d.output.command.as_array(), trim);
+                assert_eq!(d.link.engage_inhibited, seq);
+                assert_eq!(d.counters.engage_refused, 0, "never reached the controller");
+            }
+            assert_eq!(
+                board.events,
+                [Event::EngageInhibited {
+                    cause: boot.reset_cause
+                }]
+            );
+            // The acknowledgement, then an engage that engages.
+            let d = exchange(&mut app, &mut board, 6, ModeRequest::Reset);
+            assert_eq!(d.output.mode, Mode::Standby);
+            assert_eq!(board.events.last(), Some(&Event::ResetAcknowledged));
+            let d = exchange(&mut app, &mut board, 7, ModeRequest::Engage);
+            assert_eq!(d.output.mode, Mode::PreContact, "{schedule:?}");
+            assert_eq!(d.link.engage_inhibited, 5);
+        }
+        // After a power-on the first engage engages (no acknowledgement asked).
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        let d = exchange(&mut app, &mut board, 1, ModeRequest::Engage);
+        assert_eq!(
+            (d.output.mode, d.link.engage_inhibited),
+            (Mode::PreContact, 0)
+        );
+    }
+
+    #[test]
+    fn a_step_past_its_deadline_is_counted_logged_and_still_sent() {
+        // Lockstep on a slow MCU: every counter reading 10,000 counts after the previous,
+        // so from the last byte to the queued frame (several readings) is past the
+        // 10,000-count deadline.
+        Clock::set(0, 0);
+        let mut app = App::new(Schedule::Lockstep, BootReport::power_on(), None).expect("config");
+        let mut board: Mock<Clock> = Mock::default();
+        app.boot(&mut board);
+        board.send(1, input(1, ModeRequest::Engage));
+        app.poll(&mut board);
+        Clock::set(0, 10_000);
+        board.send(2, input(2, ModeRequest::None));
+        app.poll(&mut board);
+        // A configuration report is not a step: not measured, however slow.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        board
+            .rx
+            .extend(encode_config_read(&mut buf).expect("fits").iter().copied());
+        app.poll(&mut board);
+        Clock::set(0, 0);
+        board.send(3, input(3, ModeRequest::None));
+        app.poll(&mut board);
+        let f: Vec<Downlink> = board
+            .messages()
+            .into_iter()
+            .filter_map(|m| match m {
+                FlightComputerMessage::Command(d) => Some(d),
+                FlightComputerMessage::ConfigReport(_) => None,
+            })
+            .collect();
+        let overruns: Vec<u32> = f.iter().map(|d| d.link.deadline_overruns).collect();
+        // boot, frame 1 on time, frame 2 late (sent, counted in the next frame), frame 3.
+        assert_eq!(overruns, [0, 0, 0, 1]);
+        assert_eq!(f[2].echo_seq, Some(2), "the late frame was sent");
+        let late: Vec<&Event> = board
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::DeadlineOverrun { .. }))
+            .collect();
+        match late.as_slice() {
+            [
+                Event::DeadlineOverrun {
+                    elapsed,
+                    deadline,
+                    step,
+                },
+            ] => {
+                assert!(*elapsed > *deadline && *deadline == 10_000, "{elapsed}");
+                assert_eq!(*step, 2);
+            }
+            other => panic!("{other:?}"),
+        }
+
+        // Free-running: measured from the period's tick, whatever the pass did before.
+        let mut app =
+            App::new(Schedule::FreeRunning, BootReport::power_on(), None).expect("config");
+        let mut board: Mock<Clock> = Mock::default();
+        app.boot(&mut board);
+        let mut period = |board: &mut Mock<Clock>, now: u32, tick_at: u32| {
+            Clock::set(now, 0);
+            board.tick_at = tick_at;
+            board.periods = 1;
+            app.poll(board);
+            board.frames()[0].link.deadline_overruns
+        };
+        assert_eq!(
+            period(&mut board, 50_000, 41_000),
+            0,
+            "9,000 after the tick"
+        );
+        assert_eq!(
+            period(&mut board, 50_000, 39_999),
+            0,
+            "10,001: late, counted next"
+        );
+        assert_eq!(
+            period(&mut board, 5, u32::MAX - 10),
+            1,
+            "16 across the wrap"
+        );
+        assert_eq!(period(&mut board, 7, 7), 1);
+        assert_eq!(Clock::peek(), 7);
+        assert!(board.events.contains(&Event::DeadlineOverrun {
+            elapsed: 10_001,
+            deadline: 10_000,
+            step: 0,
+        }));
+    }
+
+    #[test]
+    fn a_frame_the_transmit_queue_cannot_take_whole_is_dropped_and_counted() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        board.tx_room = Some(100); // less than any command frame
+        board.send(1, input(1, ModeRequest::Engage));
+        app.poll(&mut board);
+        assert!(board.tx.is_empty(), "nothing of it sent");
+        board.tx_room = None;
+        board.send(2, input(2, ModeRequest::None));
+        app.poll(&mut board);
+        let f = board.frames();
+        assert_eq!(f.len(), 1);
+        assert_eq!((f[0].echo_seq, f[0].link.tx_dropped), (Some(2), 1));
+        assert_eq!(f[0].link.tx_errors, 0);
+    }
+
+    #[test]
+    fn lockstep_takes_the_tick_and_sends_nothing_for_it() {
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        board.periods = 3;
+        assert_eq!(app.poll(&mut board), 0);
+        assert_eq!(board.periods, 0, "taken, so the loop sleeps until the next");
+        assert!(board.frames().is_empty());
+        assert_eq!(app.link_counters().deadline_missed, 0);
     }
 
     #[test]
@@ -1189,8 +1628,9 @@ mod tests {
 
     #[test]
     fn free_running_holds_then_goes_stale_then_breaks_away_open_loop() {
-        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
-        let mut board = Mock::default();
+        let mut app =
+            App::new(Schedule::FreeRunning, BootReport::power_on(), None).expect("config");
+        let mut board: Mock = Mock::default();
         app.boot(&mut board);
         // A period before any frame: trim, no step.
         board.periods = 1;
@@ -1253,8 +1693,9 @@ mod tests {
 
     #[test]
     fn a_request_in_a_superseded_frame_is_not_lost() {
-        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
-        let mut board = Mock::default();
+        let mut app =
+            App::new(Schedule::FreeRunning, BootReport::power_on(), None).expect("config");
+        let mut board: Mock = Mock::default();
         board.send(1, input(1, ModeRequest::Engage));
         board.send(2, input(2, ModeRequest::None));
         board.periods = 1;
@@ -1274,8 +1715,9 @@ mod tests {
 
     #[test]
     fn a_held_input_does_not_repeat_the_request() {
-        let mut app = App::new(Schedule::FreeRunning, false, None).expect("config");
-        let mut board = Mock::default();
+        let mut app =
+            App::new(Schedule::FreeRunning, BootReport::power_on(), None).expect("config");
+        let mut board: Mock = Mock::default();
         board.send(1, input(1, ModeRequest::Engage));
         board.periods = 1;
         app.poll(&mut board);

@@ -26,6 +26,8 @@
 #![cfg_attr(target_os = "none", no_main)]
 
 pub mod app;
+pub mod boot;
+pub mod serial;
 pub mod store;
 // The path benchmark: on the boards only with the `bench` feature (it is 7 KB of flash the
 // flight build does not carry); on the host always, for its tests.

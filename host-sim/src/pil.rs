@@ -37,6 +37,11 @@
 //! link is kept ([`PilLink::sent_bytes`]), so a test can replay it through the core's decoder
 //! and predict exactly what the firmware must have counted.
 //!
+//! Every command frame says why the firmware last reset and which clock it runs on
+//! (`Downlink::reset_cause`, `Downlink::clock`); the link keeps the boot frame's
+//! ([`PilLink::boot_frame`]) and the statistics report the latest ([`PilStats::reset_cause`]),
+//! so a hardware-in-the-loop run, which opens the link after the boot frame, reports it too.
+//!
 //! Invariant: the child QEMU process is killed and reaped, and its temporary directory
 //! removed, when the link is dropped (set `IBVS_PIL_KEEP=1` to keep the directory and log).
 
@@ -54,9 +59,9 @@ use ibvs_core::ControllerConfig;
 use ibvs_core::controller::{ControllerInput, ControllerOutput, Counters};
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::wire::{
-    ConfigReport, ConfigStatus, CostUnit, Downlink, FlightComputerMessage, FrameDecoder,
-    LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink, WireError, config_id, encode_config_read,
-    encode_config_write, encode_uplink,
+    ClockSource, ConfigReport, ConfigStatus, CostUnit, Downlink, FlightComputerMessage,
+    FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause, Uplink, WireError,
+    config_id, encode_config_read, encode_config_write, encode_uplink,
 };
 use serde::Serialize;
 
@@ -240,6 +245,10 @@ pub struct PilOptions {
     pub step_timeout: Duration,
     /// Lockstep: retransmissions of a measurement frame after a timeout.
     pub retries: u32,
+    /// Wait for the report answering a configuration write: the `f405` board stores an
+    /// applied configuration before it answers, and erasing the flash sector takes up to
+    /// 4 s (firmware/README.md), much longer than a step.
+    pub config_timeout: Duration,
     /// Wait for QEMU to connect and the firmware to send its boot frame.
     pub boot_timeout: Duration,
     /// Faults to inject on the measurement frames.
@@ -255,6 +264,7 @@ impl Default for PilOptions {
             schedule: FirmwareSchedule::Lockstep,
             step_timeout: Duration::from_secs(2),
             retries: 1,
+            config_timeout: Duration::from_secs(10),
             boot_timeout: Duration::from_secs(20),
             faults: FaultPlan::new(),
             firmware_args: Vec::new(),
@@ -334,6 +344,10 @@ pub struct PilStats {
     pub encode_cost: Option<CostSummary>,
     /// The firmware's link counters, as last reported.
     pub firmware_link: LinkCounters,
+    /// Why the firmware last reset, as last reported (the boot frame's before any step).
+    pub reset_cause: ResetCause,
+    /// The clock the firmware runs on, as last reported.
+    pub clock: ClockSource,
     /// The controller's counters, as last reported.
     pub firmware_counters: Counters,
     /// The host's own counts.
@@ -1025,9 +1039,9 @@ impl PilFlightComputer {
     /// Makes the firmware fly `cfg` (before the first step: the firmware takes a new
     /// configuration in standby only). Succeeds only when the firmware reports it applied
     /// exactly `cfg`; flying the default is a write too, so a run never depends on what the
-    /// firmware booted with.
+    /// firmware booted with. Waits [`PilOptions::config_timeout`] for the report.
     pub fn configure(&mut self, cfg: &ControllerConfig) -> Result<(), PilError> {
-        let r = self.link.write_config(cfg, self.opts.step_timeout)?;
+        let r = self.link.write_config(cfg, self.opts.config_timeout)?;
         if r.status != ConfigStatus::Applied {
             return Err(PilError::ConfigRefused(r.status));
         }
@@ -1113,6 +1127,7 @@ impl PilFlightComputer {
             .collect();
         let costs = |f: fn(&Downlink) -> u32| -> Vec<u32> { fresh.iter().map(|d| f(d)).collect() };
         let last = self.history.last();
+        let reported = last.unwrap_or(self.link.boot_frame());
         PilStats {
             steps: self.steps,
             step_cost: CostSummary::of(unit, &costs(|d| d.cost.step)),
@@ -1120,6 +1135,8 @@ impl PilFlightComputer {
             // The first frame carries the boot frame's encoding cost; all are command frames.
             encode_cost: CostSummary::of(unit, &costs(|d| d.cost.encode_prev)),
             firmware_link: last.map(|d| d.link).unwrap_or_default(),
+            reset_cause: reported.reset_cause,
+            clock: reported.clock,
             firmware_counters: last.map(|d| d.counters).unwrap_or_default(),
             host: self.link.host,
         }

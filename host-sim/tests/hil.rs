@@ -11,6 +11,7 @@ use host_sim::pil::{PilFlightComputer, PilOptions, QemuPty, firmware_elf};
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{Outcome, run};
 use ibvs_core::Controller;
+use ibvs_core::wire::ResetCause;
 
 #[test]
 fn hil_over_a_pty_flies_a_presets_configuration_like_the_in_process_controller() {
@@ -44,6 +45,16 @@ fn hil_over_a_pty_flies_a_presets_configuration_like_the_in_process_controller()
     );
     assert_eq!(stats.firmware_link.rejected_frames(), 0, "{stats:#?}");
     assert_eq!(stats.firmware_link.config_applied, 1);
+    // No boot frame over a serial link opened after the boot: the cause comes with every
+    // command frame.
+    assert_eq!(stats.reset_cause, ResetCause::PowerOn);
+    assert_eq!(
+        (
+            stats.firmware_link.deadline_overruns,
+            stats.firmware_link.tx_dropped
+        ),
+        (0, 0)
+    );
 }
 
 /// The command a user runs against a board, here against the pty.

@@ -162,7 +162,8 @@ fn lockstep_counts_every_fault_recovers_framing_and_still_docks() {
         "two corrupted frames and the garbage: {}",
         fw.corrupt
     );
-    assert_eq!(fw.rx_errors + fw.tx_errors, 0);
+    assert_eq!(fw.rx_errors + fw.tx_errors + fw.tx_dropped, 0);
+    assert_eq!(fw.deadline_overruns, 0, "every answer within the deadline");
     // The controller saw the camera frames of the lost steps missing.
     assert_eq!(last.counters.frames_dropped, lost);
     assert_eq!(last.counters.steps, steps - lost);
@@ -325,8 +326,10 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
     assert_eq!(c.link.rejected_frames(), 0);
 
     assert_commands_safe(frames.iter().map(|d| d.output));
-    // One command frame per period, numbered without gaps.
+    // One command frame per period, numbered without gaps, each queued within the control
+    // task's deadline after its tick, none refused by the transmit queue.
     assert_eq!(link.host_counters().rx.seq_gap, 0);
+    assert_eq!((c.link.deadline_overruns, c.link.tx_dropped), (0, 0));
     let log = link.shutdown();
     assert!(log.contains("link stale"), "{log}");
 }
@@ -349,6 +352,29 @@ fn a_panic_leaves_trim_commands_and_records_why() {
                 "{tail}"
             );
             assert!(tail.contains("qemu.rs:"), "{tail}");
+        }
+        other => panic!("expected the panic frame, got {other:?}"),
+    }
+}
+
+/// The HardFault path when the stack itself is gone: `stack-overflow-test` recurses until
+/// the stack runs into the unmapped memory below RAM (flip-link's layout). The handler's
+/// trampoline moves the stack pointer back into RAM first, so the safe frame still comes
+/// out and the reason is recorded (without it QEMU reports a lockup and no frame is sent).
+#[test]
+fn a_stack_overflow_still_sends_the_safe_frame() {
+    let elf = firmware_elf().expect("firmware ELF");
+    let opts = PilOptions {
+        firmware_args: vec!["stack-overflow-test".into()],
+        ..PilOptions::default()
+    };
+    match PilLink::spawn(&elf, &opts) {
+        Err(PilError::FirmwarePanicked { output, tail, .. }) => {
+            assert_eq!(output.command.as_array(), ibvs_core::config::trim_command());
+            assert!(
+                tail.contains("FAULT (safe frame sent): HardFault: stack pointer outside RAM"),
+                "{tail}"
+            );
         }
         other => panic!("expected the panic frame, got {other:?}"),
     }

@@ -13,7 +13,7 @@ use host_sim::pil::{PilFlightComputer, firmware_elf};
 use host_sim::scenario::PRESETS;
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{Outcome, Run, Scenario, run};
-use ibvs_core::wire::{CostUnit, config_id};
+use ibvs_core::wire::{ClockSource, CostUnit, LinkStatus, ResetCause, config_id};
 use ibvs_core::{Controller, ControllerConfig, Mode, OuterLaw, Procedure};
 
 /// The mode sequence of a run (consecutive repeats removed).
@@ -37,6 +37,13 @@ fn pil_flies_like_in_process(scenario: &Scenario, cfg: &ControllerConfig) -> Run
 
     let elf = firmware_elf().expect("firmware ELF");
     let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
+    // The boot frame: a power-on (the qemu board's report), standby trim.
+    let boot = *pil.link().boot_frame();
+    assert!(boot.link_status.contains(LinkStatus::BOOT));
+    assert_eq!(
+        (boot.reset_cause, boot.clock),
+        (ResetCause::PowerOn, ClockSource::NotReported)
+    );
     pil.configure(cfg)
         .expect("the firmware applies the configuration");
     let got = run(scenario, &mut pil).expect("PIL run");
@@ -66,6 +73,19 @@ fn pil_flies_like_in_process(scenario: &Scenario, cfg: &ControllerConfig) -> Run
     assert_eq!(stats.host.failed_steps + stats.host.timeouts, 0);
     assert_eq!(u64::from(stats.firmware_link.frames_ok), steps);
     assert_eq!(stats.firmware_link.rejected_frames(), 0);
+    // Every step's frame queued within the control task's deadline, none refused by the
+    // transmit queue, no engage held back (a power-on needs no acknowledgement).
+    let l = stats.firmware_link;
+    assert_eq!(
+        (
+            l.deadline_overruns,
+            l.tx_dropped,
+            l.tx_errors,
+            l.engage_inhibited
+        ),
+        (0, 0, 0, 0)
+    );
+    assert_eq!(stats.reset_cause, ResetCause::PowerOn);
     assert_eq!(stats.firmware_counters.steps as usize, got.samples.len());
     let cost = stats.step_cost.expect("step costs");
     assert_eq!(cost.unit, CostUnit::Instructions);

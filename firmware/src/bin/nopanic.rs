@@ -8,12 +8,23 @@
 //! function that does not exist. It also runs the configuration path: a configuration frame's
 //! deserialisation, [`Controller::reconfigure`](ibvs_core::Controller::reconfigure), the
 //! configuration's id and the report's encoding; and the flight application's whole loop
-//! (`App::run`: byte handling, framing, the configuration path, both schedules) on a board
-//! whose every answer is opaque. The release build (LTO, dead code removed) therefore links
-//! only if no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow
-//! check or an `unreachable!` that the optimiser could not prove dead would keep the panic
-//! handler, and with it the undefined symbol
-//! `a_panic_is_reachable_from_the_flight_code`, and the link fails naming it.
+//! (`App::run`: byte handling, framing, the configuration path, the deadline, the reset
+//! acknowledgement, both schedules) twice: on a board whose every answer is opaque, and on
+//! the boards' own serial link and configuration store: USART1's driver and interrupt
+//! handler (`board/usart1.rs`, the same file the firmware builds, with its vector in this
+//! binary's table) over the lock-free queues and the interrupt's logic (`serial.rs`), and
+//! the store (`store.rs`) over the `f405` board's flash driver (`board/flash.rs`: reads,
+//! erase and program). The release build (LTO, dead code removed) therefore links only if
+//! no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow check
+//! or an `unreachable!` that the optimiser could not prove dead would keep the panic
+//! handler, and with it the undefined symbol `a_panic_is_reachable_from_the_flight_code`,
+//! and the link fails naming it (checked: a deliberate out-of-bounds index in the
+//! interrupt's logic fails the link).
+//!
+//! Not in it: the boards' start-up (the clock set-up through the HAL, whose asserts depend
+//! only on the constant clock configuration; the option bytes), the SysTick handler (two
+//! atomic operations and a register read), the watchdog driver, the fault handlers
+//! themselves and the boards' logging (semihosting formatting; defmt).
 //!
 //! It is built with the firmware (`cargo build -p firmware --target thumbv7em-none-eabihf
 //! --release`, both boards), so the check runs wherever the firmware is built; it is never
@@ -29,12 +40,45 @@
 #[allow(dead_code)]
 mod app;
 
+/// What the board found at reset (the application's `BootReport`).
+#[cfg(target_os = "none")]
+#[path = "../boot.rs"]
+#[allow(dead_code)]
+mod boot;
+
+/// The link's queues and the USART interrupt's logic.
+#[cfg(target_os = "none")]
+#[path = "../serial.rs"]
+#[allow(dead_code)]
+mod serial;
+
+/// The configuration store.
+#[cfg(target_os = "none")]
+#[path = "../store.rs"]
+#[allow(dead_code)]
+mod store;
+
+/// The boards' USART1 driver and interrupt handler, as the firmware builds them.
+#[cfg(target_os = "none")]
+#[path = "../board/usart1.rs"]
+#[allow(dead_code, unsafe_code)]
+mod usart1;
+
+/// The `f405` board's flash driver under the store.
+#[cfg(target_os = "none")]
+#[path = "../board/flash.rs"]
+#[allow(dead_code, unsafe_code)]
+mod flash;
+
 #[cfg(target_os = "none")]
 mod target {
     use core::hint::black_box;
 
-    use super::app::{App, Board, Event, NoCounter, Schedule};
-    use embedded_io::{ErrorType, Read, ReadReady, Write};
+    use super::app::{App, Board, BootReport, Event, NoCounter, Periods, QueueFull, Schedule};
+    use super::flash::{STORE_SLOT_LEN, STORE_SLOTS, StoreFlash};
+    use super::store::{ConfigStore, Persist};
+    use super::usart1::{self, SerialLink};
+    use embedded_io::{ErrorType, Read, ReadReady};
 
     /// A board whose every answer is opaque to the optimiser: any byte, any readiness, any
     /// number of periods, any store outcome.
@@ -59,17 +103,6 @@ mod target {
         }
     }
 
-    impl Write for AnyBoard {
-        fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
-            black_box(buf);
-            Ok(black_box(buf.len()))
-        }
-
-        fn flush(&mut self) -> Result<(), Self::Error> {
-            Ok(())
-        }
-    }
-
     impl Board for AnyBoard {
         type Link = Self;
         type Counter = NoCounter;
@@ -78,13 +111,27 @@ mod target {
             self
         }
 
-        fn take_periods(&mut self) -> u32 {
-            black_box(1)
+        fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
+            black_box(frame);
+            if black_box(true) {
+                Ok(())
+            } else {
+                Err(QueueFull)
+            }
+        }
+
+        fn take_periods(&mut self) -> Periods {
+            black_box(Periods {
+                count: 1,
+                last_tick_at: 0,
+            })
         }
 
         fn take_rx_errors(&mut self) -> u32 {
             black_box(0)
         }
+
+        fn pass_completed(&mut self) {}
 
         fn wait_for_event(&mut self) {}
 
@@ -98,6 +145,48 @@ mod target {
         }
     }
 
+    /// The boards' own link and store: USART1's queues and interrupt, the flash driver.
+    struct McuLink {
+        link: SerialLink,
+        store: Option<ConfigStore<StoreFlash>>,
+    }
+
+    impl Board for McuLink {
+        type Link = SerialLink;
+        type Counter = NoCounter;
+
+        fn link(&mut self) -> &mut SerialLink {
+            &mut self.link
+        }
+
+        fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
+            self.link.transmit(frame)
+        }
+
+        fn take_periods(&mut self) -> Periods {
+            black_box(Periods::default())
+        }
+
+        fn take_rx_errors(&mut self) -> u32 {
+            usart1::take_rx_errors()
+        }
+
+        fn pass_completed(&mut self) {}
+
+        fn wait_for_event(&mut self) {}
+
+        fn log(&mut self, event: Event) {
+            black_box(event);
+        }
+
+        fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage {
+            match &mut self.store {
+                Some(s) => s.persist(cfg),
+                None => ConfigStorage::Failed,
+            }
+        }
+    }
+
     use cortex_m_rt::entry;
     use ibvs_core::wire::{
         ConfigReport, ConfigStatus, ConfigStorage, Downlink, FrameDecoder, MAX_FRAME_LEN,
@@ -105,7 +194,7 @@ mod target {
     };
     use ibvs_core::{Controller, ControllerConfig, ControllerInput};
     // The device's interrupt vectors (cortex-m-rt's link script needs them).
-    use stm32f4xx_hal as _;
+    use stm32f4xx_hal::pac;
 
     #[entry]
     fn main() -> ! {
@@ -117,9 +206,25 @@ mod target {
         } else {
             Schedule::FreeRunning
         };
-        if let Ok(app) = App::new(schedule, black_box(false), black_box(None)) {
-            if black_box(true) {
-                app.run(&mut AnyBoard);
+        let boot = black_box(BootReport::default());
+        if let Ok(app) = App::new(schedule, boot, black_box(None))
+            && black_box(true)
+        {
+            app.run(&mut AnyBoard);
+        }
+        // Again on the boards' USART1 driver and the store on the flash driver.
+        if black_box(true)
+            && let Some(dp) = pac::Peripherals::take()
+        {
+            let link = usart1::init(dp.USART1, black_box(None));
+            let mut store =
+                ConfigStore::new(StoreFlash::new(dp.FLASH), STORE_SLOTS, STORE_SLOT_LEN).ok();
+            let stored = store
+                .as_mut()
+                .and_then(|s| s.load().newest)
+                .map(|(cfg, _)| cfg);
+            if let Ok(app) = App::new(schedule, boot, stored) {
+                app.run(&mut McuLink { link, store });
             }
         }
         loop {

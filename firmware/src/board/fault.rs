@@ -1,5 +1,5 @@
 //! Fault handling: the panic handler and the HardFault handler leave the actuators in a safe
-//! state and record why.
+//! state and record why; a clock failure is recorded and resets the board.
 //!
 //! Place in the data flow: outside it. On a panic (which the application is built never to
 //! reach: no byte sequence can cause one) or a HardFault, with interrupts masked:
@@ -10,7 +10,23 @@
 //! 2. a command frame with the trim commands and `LinkStatus::PANIC` is written to USART1 by
 //!    polling (the actuator side holds trim on it);
 //! 3. the board finishes ([`super::selected::on_fault`]): QEMU logs the reason and exits with
-//!    status 1; the real board repeats the safe frame every control period, forever.
+//!    status 1; the real board repeats the safe frame every control period without feeding
+//!    its independent watchdog, which resets it (within 68..188 ms in flight, 5..15 s during
+//!    boot): it boots in standby with trim, the fault record sets `PREVIOUS_PANIC`, and it
+//!    does not engage until the peer acknowledges the reset (`crate::boot`).
+//!
+//! The HardFault handler is entered through a small assembly trampoline
+//! ([`HardFault`](hard_fault_on_fresh_stack)) that moves the stack pointer to the top of the
+//! stack region before any Rust code runs: a HardFault from a stack overflow (under
+//! flip-link the stack grows down into the unmapped space below RAM) would otherwise fault
+//! again on the handler's first push and lock the core up without a safe frame. The stack
+//! that faulted is abandoned (the handler never returns); its stacked PC is read only if the
+//! exception frame lies in RAM.
+//!
+//! A clock failure (the clock security system's NMI, `f405` board) records its reason and
+//! resets the board at once ([`clock_failure_reset`]): the link's baud rate depends on the
+//! lost clock, so a safe frame could not be sent; the next boot runs on the internal
+//! oscillator if the crystal does not start, and says so.
 //!
 //! Best effort: a fault inside the fault path (a second panic) skips to the halt; a fault
 //! before USART1 was enabled sends nothing; the record survives a reset but not a power loss.
@@ -23,7 +39,6 @@ use core::mem::MaybeUninit;
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use cortex_m_rt::{ExceptionFrame, exception};
 use ibvs_core::wire::MAX_FRAME_LEN;
 use stm32f4xx_hal::pac::USART1;
 
@@ -150,18 +165,43 @@ pub fn send_safe_frame() {
     }
 }
 
-fn fault(fill: impl FnOnce(&mut FaultRecord)) -> ! {
+/// Masks interrupts and writes the record `fill` makes; `None` (nothing written) when a
+/// fault path is already running.
+fn record(fill: impl FnOnce(&mut FaultRecord)) -> Option<FaultRecord> {
     cortex_m::interrupt::disable();
     if IN_FAULT.swap(true, Ordering::Relaxed) {
-        halt();
+        return None;
     }
     let mut r = FaultRecord::empty();
     r.magic = MAGIC;
     fill(&mut r);
     r.check = r.checksum();
     store(&r);
+    Some(r)
+}
+
+fn fault(fill: impl FnOnce(&mut FaultRecord)) -> ! {
+    let Some(r) = record(fill) else { halt() };
     send_safe_frame();
     super::selected::on_fault(&r)
+}
+
+/// Records `reason` (a clock failure) and resets the board at once, without a safe frame
+/// (see the module doc).
+#[cfg_attr(not(feature = "f405"), allow(dead_code))]
+pub fn clock_failure_reset(reason: &str) -> ! {
+    if record(|r| {
+        let _ = Field {
+            buf: &mut r.message,
+            at: 0,
+        }
+        .write_str(reason);
+    })
+    .is_none()
+    {
+        halt()
+    }
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 /// Parks the core.
@@ -193,16 +233,65 @@ fn panic(info: &PanicInfo<'_>) -> ! {
     })
 }
 
-#[exception]
-#[allow(unsafe_code)] // Note(unsafe): cortex-m-rt requires the HardFault handler to be `unsafe fn`.
-unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    let pc = frame.pc();
+// The HardFault vector (cortex-m-rt's `HardFault` symbol, which this definition overrides):
+// the faulting stack pointer (MSP or PSP, per EXC_RETURN in LR) into r0, the stack pointer
+// set to the top of the stack region (`_stack_start`, cortex-m-rt's and flip-link's initial
+// stack pointer), then a branch to the Rust handler, which never returns.
+// Note(unsafe): `global_asm!` is unsafe by nature; the entry uses no stack and touches no
+// memory before the new stack pointer is set, and the handler it branches to is an
+// `extern "C" fn(u32) -> !` that takes the old stack pointer as a plain integer.
+#[allow(unsafe_code)]
+mod trampoline {
+    core::arch::global_asm!(
+        ".section .HardFault.user, \"ax\"",
+        ".global HardFault",
+        ".type HardFault,%function",
+        ".thumb_func",
+        "HardFault:",
+        "tst lr, #4",
+        "ite eq",
+        "mrseq r0, MSP",
+        "mrsne r0, PSP",
+        "ldr r1, =_stack_start",
+        "msr MSP, r1",
+        "b {handler}",
+        ".ltorg",
+        ".size HardFault, . - HardFault",
+        handler = sym super::hard_fault_on_fresh_stack,
+    );
+}
+
+/// The SRAM the stack and the exception frames live in (`memory.x`: SRAM1 and SRAM2).
+const RAM: core::ops::Range<u32> = 0x2000_0000..0x2002_0000;
+
+/// The HardFault handler proper, on a fresh stack (entered from the `HardFault` trampoline
+/// with the stack pointer that faulted): records the stacked PC when the exception frame
+/// lies in RAM, or names a stack overflow when the stack pointer left RAM.
+extern "C" fn hard_fault_on_fresh_stack(faulted_sp: u32) -> ! {
+    // The exception frame: r0, r1, r2, r3, r12, lr, pc, xPSR; the PC at offset 24.
+    let frame_in_ram = faulted_sp.is_multiple_of(4)
+        && RAM.contains(&faulted_sp)
+        && faulted_sp.checked_add(32).is_some_and(|end| end <= RAM.end);
+    let pc = if frame_in_ram {
+        // Note(unsafe): a word-aligned read inside SRAM (checked above), which is always
+        // mapped; the old stack is abandoned, nothing else uses it.
+        #[allow(unsafe_code)]
+        unsafe {
+            core::ptr::read_volatile((faulted_sp + 24) as *const u32)
+        }
+    } else {
+        0
+    };
     fault(|r| {
         r.pc = pc;
         let _ = Field {
             buf: &mut r.message,
             at: 0,
         }
-        .write_str("HardFault");
+        .write_str(if frame_in_ram {
+            "HardFault"
+        } else {
+            "HardFault: stack pointer outside RAM (stack overflow)"
+        });
     })
 }

@@ -4,12 +4,17 @@
 //! default, or `qemu`), runs the power-on self-test ([`crate::one_step::run`]), brings up the
 //! serial link and the timers, and hands a [`crate::app::Board`] to the board-independent
 //! [`crate::app::App::run`]. The parts both boards share live here:
-//! - [`usart1`]: USART1 with an interrupt-fed receive queue and polled transmit, behind the
-//!   embedded-io traits ([`usart1::SerialLink`]);
-//! - [`systick`]: the control-period tick of the free-running schedule (SysTick at
-//!   `Ts` = 20 ms of the core clock, 168 MHz on both boards);
-//! - [`fault`]: the panic and HardFault handlers (safe state, recorded reason);
+//! - [`usart1`]: USART1 with an interrupt-fed receive queue and an interrupt-drained
+//!   transmit queue ([`usart1::SerialLink`]; the queues and the interrupt's logic are
+//!   `crate::serial`);
+//! - [`systick`]: the control-period tick (SysTick at `Ts` = 20 ms of the core clock,
+//!   168 MHz on both boards), stamped with the cost counter for the control task's deadline;
+//! - [`fault`]: the panic, HardFault (on a fresh stack) and clock-failure handlers (safe
+//!   state, recorded reason);
 //! - [`stack`]: the stack's high-water mark (painted at reset).
+//!
+//! The `f405` board adds `flash` (the configuration store's sectors, without the HAL's
+//! panicking read) and `watchdog` (the independent watchdog).
 //!
 //! | | `qemu` (netduinoplus2) | `f405` (real STM32F405) |
 //! |---|---|---|
@@ -18,6 +23,29 @@
 //! | cost counter | TIM2, one count per instruction (`-icount shift=0`) | DWT CYCCNT, cycles |
 //! | schedule | lockstep; `free-running` on the semihosting command line | free-running; `lockstep` feature |
 //! | logs | semihosting text (QEMU's stdout/stderr) | defmt over RTT |
+//!
+//! # Scheduling: interrupts and a superloop, not RTIC
+//!
+//! One periodic control task (the main loop's pass after a period tick or a measurement
+//! frame), two interrupts (USART1: a received byte or the transmit register empty; SysTick:
+//! the period), and a configuration write that blocks for seconds in standby. What can
+//! preempt what: the two interrupts preempt the main loop; they run at the same NVIC
+//! priority (the reset default), so they never preempt each other. Each is short and
+//! bounded: SysTick two atomic operations; USART1 one received byte and, on the MCU, one or
+//! two transmitted bytes (under QEMU, whose writes are immediate, a whole queued frame). They
+//! share with the main loop only lock-free single-producer single-consumer queues and
+//! atomics (`crate::serial`), so there is no lock and no priority inversion. The critical
+//! sections are a few instructions each (taking the period count with its stamp; the check
+//! before WFI) plus, on the `qemu` board only, each received byte's timed decode window.
+//! Worst-case blocking of the control task: the interrupts' own time (at 921,600 baud in
+//! both directions, one interrupt per byte time of 10.8 us each way, each on the order of a
+//! hundred cycles of the 1,814 a byte time holds: under 15 % of the CPU at full line rate
+//! both ways, an estimate), and nothing else. The configuration write stalls the whole CPU, interrupts
+//! included, because the code runs from the flash being erased: no scheduler can run the
+//! control task then, which is why a write is refused unless the controller is in standby.
+//! RTIC 2 would give the same guarantees (static priorities, stack-resource policy) for
+//! this structure; it would add a framework and a dependency without removing a lock,
+//! because there is none to remove.
 //!
 //! Invariant: `unsafe` appears only in this module tree, each use with a
 //! `// Note(unsafe): ...` saying why it is sound.
@@ -34,20 +62,32 @@ pub mod stack;
 pub mod systick;
 pub mod usart1;
 
+#[cfg(all(feature = "qemu", feature = "usart1-pb6-pb7"))]
+compile_error!("`usart1-pb6-pb7` selects the `f405` board's USART1 pins; QEMU has no pins");
+
 #[cfg(feature = "f405")]
 mod f405;
+#[cfg(feature = "f405")]
+pub mod flash;
 #[cfg(feature = "qemu")]
 mod qemu;
+#[cfg(feature = "f405")]
+pub mod watchdog;
 
 #[cfg(feature = "f405")]
 use f405 as selected;
 #[cfg(feature = "qemu")]
 use qemu as selected;
 
+/// The selected board's cost counter (the tick stamps periods with it).
+pub use selected::Counter;
+
 use cortex_m_rt::entry;
 
-use crate::app::{Board, Event};
-use crate::store::Persist;
+use crate::app::{Board, Event, Periods, QueueFull};
+use crate::store::NoStore;
+use ibvs_core::ControllerConfig;
+use ibvs_core::wire::ConfigStorage;
 
 /// Reset entry (after cortex-m-rt has initialised .data and .bss): the selected board's
 /// start-up, then the application, forever.
@@ -56,26 +96,45 @@ fn main() -> ! {
     selected::start()
 }
 
+/// What a board adds to the shared link and tick: its configuration store and its
+/// watchdog.
+pub trait Services {
+    /// Stores an applied configuration for the next boot (`crate::store`).
+    fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage;
+    /// The main loop completed a pass: feed the watchdog.
+    fn feed_watchdog(&mut self);
+}
+
+/// The `qemu` board's services: no store (QEMU's flash is read-only), no watchdog (QEMU
+/// 7.2's netduinoplus2 does not model the IWDG).
+impl Services for NoStore {
+    fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage {
+        crate::store::Persist::persist(self, cfg)
+    }
+
+    fn feed_watchdog(&mut self) {}
+}
+
 /// The board the application runs on: the shared link and tick, the board's counter,
-/// logger and configuration store.
+/// logger and services (configuration store, watchdog).
 pub struct McuBoard<C, S> {
     link: usart1::SerialLink,
-    store: S,
+    services: S,
     _counter: core::marker::PhantomData<C>,
 }
 
 impl<C, S> McuBoard<C, S> {
-    /// The board around an initialised link and its configuration store.
-    pub fn new(link: usart1::SerialLink, store: S) -> Self {
+    /// The board around an initialised link and its services.
+    pub fn new(link: usart1::SerialLink, services: S) -> Self {
         Self {
             link,
-            store,
+            services,
             _counter: core::marker::PhantomData,
         }
     }
 }
 
-impl<C: crate::app::CostCounter, S: Persist> Board for McuBoard<C, S> {
+impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
     type Link = usart1::SerialLink;
     type Counter = C;
 
@@ -83,8 +142,16 @@ impl<C: crate::app::CostCounter, S: Persist> Board for McuBoard<C, S> {
         &mut self.link
     }
 
-    fn take_periods(&mut self) -> u32 {
+    fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
+        self.link.transmit(frame)
+    }
+
+    fn take_periods(&mut self) -> Periods {
         systick::take_periods()
+    }
+
+    fn pass_completed(&mut self) {
+        self.services.feed_watchdog();
     }
 
     fn take_rx_errors(&mut self) -> u32 {
@@ -111,7 +178,7 @@ impl<C: crate::app::CostCounter, S: Persist> Board for McuBoard<C, S> {
         selected::log(event);
     }
 
-    fn persist(&mut self, cfg: &ibvs_core::ControllerConfig) -> ibvs_core::wire::ConfigStorage {
-        self.store.persist(cfg)
+    fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage {
+        self.services.persist(cfg)
     }
 }

@@ -13,7 +13,14 @@
 //!   (what `cargo run --target thumbv7em-none-eabihf` does, see `.cargo/config.toml`);
 //! - `bench` (a build with the `bench` feature; otherwise exit 1 saying so): print what each path of the control step, a frame decode and a frame encode
 //!   cost ([`crate::bench`], one JSON line), exit 0;
-//! - `panic-test`: panic once the link is up, to test the fault path (`super::fault`).
+//! - `panic-test`: panic once the link is up, to test the fault path (`super::fault`);
+//! - `stack-overflow-test`: recurse until the stack overflows once the link is up, to test
+//!   the HardFault trampoline (the safe frame must still come out).
+//!
+//! The boot frame reports a power-on ([`crate::boot::BootReport::power_on`]): QEMU starts
+//! every run from power-on and this board never resets itself (a fault ends QEMU); QEMU 7.2
+//! does not model the RCC's reset flags nor the independent watchdog, so this board has no
+//! watchdog. Its tick runs in the free-running schedule only (`super::systick`).
 //!
 //! Logs are semihosting text on QEMU's stdout/stderr, never on the serial link (its own
 //! chardev). Invariant: no clock or RCC access on this path.
@@ -24,7 +31,7 @@ use stm32f4xx_hal::pac;
 
 use super::McuBoard;
 use super::fault::{FaultRecord, halt};
-use crate::app::{App, CostCounter, Event, Schedule};
+use crate::app::{App, BootReport, CostCounter, Event, Schedule};
 #[cfg(feature = "bench")]
 use crate::bench;
 use crate::one_step;
@@ -49,8 +56,15 @@ const CORE_HZ: u32 = 168_000_000;
 /// TIM2's counter: instructions executed under `-icount shift=0`.
 pub struct Tim2Counter;
 
+/// The cost counter of this board.
+pub type Counter = Tim2Counter;
+
 impl CostCounter for Tim2Counter {
     const UNIT: CostUnit = CostUnit::Instructions;
+    /// 1 ms at 168 MHz if every instruction took one cycle (none takes fewer on a
+    /// Cortex-M4): an overrun here is one on the board too (QEMU's own clock, 1 ns per
+    /// instruction, is not the board's).
+    const DEADLINE: u32 = 168_000;
     fn now() -> u32 {
         // Note(unsafe): a read of TIM2_CNT, a free-running counter: no side effect, no
         // shared state; TIM2 is started in `start` before any read matters.
@@ -179,7 +193,22 @@ pub fn start() -> ! {
         // through QEMU's semihosting command line.
         panic!("panic-test requested on the semihosting command line");
     }
-    let app = match App::new(schedule, previous.is_some(), None) {
+    if args.has("stack-overflow-test") {
+        // Exercises the HardFault trampoline: the stack runs into the unmapped memory
+        // below RAM (flip-link), the fault handler must still send the safe frame.
+        hprintln!("firmware: stack-overflow-test: recursing");
+        overflow_the_stack(0);
+    }
+    let boot = BootReport {
+        previous_fault: previous.is_some(),
+        ..BootReport::power_on()
+    };
+    hprintln!(
+        "firmware: reset cause {:?}, clock {:?}",
+        boot.reset_cause,
+        boot.clock
+    );
+    let app = match App::new(schedule, boot, None) {
         Ok(app) => app,
         Err(e) => {
             hprintln!("firmware: configuration rejected: {}", e);
@@ -193,6 +222,19 @@ pub fn start() -> ! {
     );
     // QEMU's flash is read-only: no configuration store, the default at every boot.
     app.run(&mut McuBoard::<Tim2Counter, _>::new(link, NoStore))
+}
+
+/// Recurses forever, each frame 256 bytes the optimiser cannot remove (the
+/// `stack-overflow-test`).
+#[inline(never)]
+#[allow(
+    unconditional_recursion,
+    reason = "the test overflows the stack on purpose"
+)]
+fn overflow_the_stack(depth: u32) -> u32 {
+    let mut frame = [depth; 64];
+    core::hint::black_box(&mut frame);
+    overflow_the_stack(depth.wrapping_add(1)).wrapping_add(frame[(depth % 64) as usize])
 }
 
 /// Logs an application event as a semihosting line.
@@ -214,6 +256,21 @@ pub fn log(event: Event) {
             step,
             bytes
         ),
+        Event::DeadlineOverrun {
+            elapsed,
+            deadline,
+            step,
+        } => hprintln!(
+            "firmware: step {}: command frame queued {} instructions after its trigger (deadline {})",
+            step,
+            elapsed,
+            deadline
+        ),
+        Event::EngageInhibited { cause } => hprintln!(
+            "firmware: engage refused: the reset ({:?}) is not acknowledged (send Reset)",
+            cause
+        ),
+        Event::ResetAcknowledged => hprintln!("firmware: reset acknowledged: engage allowed"),
     }
 }
 

@@ -1,13 +1,22 @@
-//! The control-period tick of the free-running schedule: SysTick, a core peripheral, so the
-//! same on both boards.
+//! The control-period tick: SysTick, a core peripheral, so the same on both boards.
 //!
-//! Place in the data flow: the SysTick exception counts elapsed control periods; the main
-//! loop takes the count ([`take_periods`]) and runs one step when it is at least one, and
-//! counts the excess as missed deadlines (`LinkCounters::deadline_missed`).
+//! Place in the data flow: the SysTick exception counts elapsed control periods and stamps
+//! the latest with the board's cost counter; the main loop takes both ([`take_periods`]):
+//! free-running, it runs one step when the count is at least one, counts the excess as
+//! missed periods (`LinkCounters::deadline_missed`) and measures the step's deadline from
+//! the stamp; lockstep, it only takes them. The `f405` board runs the tick in both
+//! schedules, so that its main loop wakes (and feeds the watchdog) every period even while
+//! a lockstep peer is silent; the `qemu` board runs it in free-running only (an exception in
+//! the middle of a timed lockstep step would make the reported instruction counts differ
+//! run to run).
 //!
 //! Invariant: the period is the core's `Controller::PERIOD_S` (checked at compile time).
+//! The handler is two atomic operations and a counter read: nothing in it can panic or
+//! block.
 
 use core::sync::atomic::{AtomicU32, Ordering};
+
+use crate::app::{CostCounter, Periods};
 
 use cortex_m::peripheral::SYST;
 use cortex_m::peripheral::syst::SystClkSource;
@@ -19,6 +28,8 @@ pub const TICK_HZ: u32 = 50;
 const _: () = assert!(1.0 / TICK_HZ as f32 == Controller::PERIOD_S);
 
 static PERIODS: AtomicU32 = AtomicU32::new(0);
+/// The cost counter at the latest tick.
+static TICK_AT: AtomicU32 = AtomicU32::new(0);
 
 /// Why the tick could not start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,9 +52,13 @@ pub fn start(mut syst: SYST, core_hz: u32) -> Result<(), TickError> {
     Ok(())
 }
 
-/// Control periods elapsed since the last call.
-pub fn take_periods() -> u32 {
-    PERIODS.swap(0, Ordering::Relaxed)
+/// Control periods elapsed since the last call, and the cost counter at the latest tick
+/// (read together, with the tick masked for the two reads).
+pub fn take_periods() -> Periods {
+    cortex_m::interrupt::free(|_| Periods {
+        count: PERIODS.swap(0, Ordering::Relaxed),
+        last_tick_at: TICK_AT.load(Ordering::Relaxed),
+    })
 }
 
 /// True when at least one period is waiting to be taken.
@@ -53,5 +68,6 @@ pub fn pending() -> bool {
 
 #[exception]
 fn SysTick() {
+    TICK_AT.store(super::Counter::now(), Ordering::Relaxed);
     PERIODS.fetch_add(1, Ordering::Relaxed);
 }

@@ -1,33 +1,98 @@
-//! USART1, the serial link to the peer, shared by both boards: interrupt-fed receive queue,
-//! polled transmit, behind the embedded-io traits ([`SerialLink`]).
+//! USART1, the serial link to the peer, shared by both boards: an interrupt-fed receive
+//! queue and an interrupt-drained transmit queue ([`SerialLink`]).
 //!
-//! Place in the data flow: the USART1 interrupt moves each received byte into [`RX_QUEUE_LEN`]
-//! bytes of queue; the application drains it through [`embedded_io::Read`] and writes command
-//! frames through [`embedded_io::Write`] (blocking on TXE, one byte at a time: at 921,600 baud
-//! the largest command frame (317 bytes) takes 3.4 ms of the 20 ms period; DMA would free the CPU for that
-//! time). Under QEMU the baud rate is ignored and a write is immediate.
+//! Place in the data flow: the USART1 interrupt runs [`SerialQueues::on_interrupt`]
+//! (`crate::serial`: every decision is there, board-independent and host-tested) over the
+//! USART1 registers ([`Usart1Registers`]); the application reads received bytes through
+//! [`embedded_io::Read`] and hands each frame whole to [`SerialLink::transmit`], which
+//! queues it (or refuses it whole) and pends the interrupt, and returns at once: the
+//! control task never waits on the wire (the largest command frame takes 3.8 ms at
+//! 921,600 baud). Under QEMU the baud rate is ignored and a write is immediate, so the
+//! pended interrupt sends a whole frame in one run; on the MCU each TXE interrupt sends the
+//! next byte.
 //!
-//! Invariants: a received byte is never dropped silently: a hardware error (overrun, noise,
-//! framing, parity) or a full queue is counted ([`take_rx_errors`]); the register block is
-//! only touched inside critical sections (the interrupt and the main loop share it).
+//! Queue sizes: receive [`RX_QUEUE_LEN`], transmit [`TX_QUEUE_LEN`] (the reasons at each).
+//!
+//! Invariants: after [`init`] only the interrupt touches the USART's registers (the main
+//! loop touches the queues and pends the interrupt in the NVIC), so no register access
+//! needs a critical section and nothing here can panic (this file is in the no-panic link
+//! check, `src/bin/nopanic.rs`). A received byte is never dropped silently: a hardware
+//! error (overrun, noise, framing, parity) or a full queue is counted ([`take_rx_errors`]);
+//! a frame the transmit queue cannot take whole is refused, and the application counts it.
 
-use core::cell::RefCell;
 use core::convert::Infallible;
-use core::sync::atomic::{AtomicU32, Ordering};
 
-use critical_section::Mutex;
-use heapless::Deque;
 use stm32f4xx_hal::pac::{self, USART1, interrupt};
 
-/// Receive queue capacity, bytes: two largest frames, i.e. 40 ms of back-to-back frames at
-/// 115,200 baud or 5 ms at 921,600 (the main loop drains it every period).
+use crate::serial::{QueueFull, SerialQueues, UsartRegisters, UsartStatus};
+
+/// Receive queue capacity, bytes: more than a configuration write (411 bytes, the largest
+/// frame the peer sends) and five measurement frames; 5.5 ms of back-to-back bytes at
+/// 921,600 baud, and the main loop drains it every pass (at least every period, 20 ms,
+/// while the peer sends one measurement frame per period).
 pub const RX_QUEUE_LEN: usize = 512;
 
-static USART: Mutex<RefCell<Option<USART1>>> = Mutex::new(RefCell::new(None));
-static RXQ: Mutex<RefCell<Deque<u8, RX_QUEUE_LEN>>> = Mutex::new(RefCell::new(Deque::new()));
-static RX_ERRORS: AtomicU32 = AtomicU32::new(0);
+/// Transmit queue capacity, bytes: the largest frame the link can carry
+/// ([`ibvs_core::wire::MAX_FRAME_LEN`], 640; a configuration report is at most about 520)
+/// and the largest command frame (354) behind it, so that a configuration report followed
+/// by the period's command frame is never refused. At 921,600 baud it drains in 11.1 ms, less
+/// than one control period, so in flight (one command frame per period, 3.8 ms on the
+/// wire) it never holds more than that period's frame; a refused frame means the wire is
+/// slower than that (counted, `LinkCounters::tx_dropped`).
+pub const TX_QUEUE_LEN: usize = 1024;
 
-/// The link: reads drain the receive queue, writes go to the transmit register.
+const _: () = assert!(TX_QUEUE_LEN >= ibvs_core::wire::MAX_FRAME_LEN + 354);
+
+/// The queues the USART1 interrupt and the main loop share.
+static LINK: SerialQueues<RX_QUEUE_LEN, TX_QUEUE_LEN> = SerialQueues::new();
+
+/// The USART1 registers, as the interrupt uses them.
+pub struct Usart1Registers(());
+
+impl Usart1Registers {
+    fn regs() -> &'static pac::usart1::RegisterBlock {
+        // Note(unsafe): a shared reference to the memory-mapped register block, which is
+        // always mapped. Only the USART1 interrupt uses it after `init` (which owned the
+        // peripheral and configured it), and the fault path, with interrupts masked.
+        #[allow(unsafe_code)]
+        unsafe {
+            &*USART1::ptr()
+        }
+    }
+}
+
+impl UsartRegisters for Usart1Registers {
+    fn status(&mut self) -> UsartStatus {
+        let sr = Self::regs().sr().read();
+        UsartStatus {
+            rx_ready: sr.rxne().bit_is_set(),
+            tx_empty: sr.txe().bit_is_set(),
+            rx_error: sr.ore().bit_is_set()
+                || sr.nf().bit_is_set()
+                || sr.fe().bit_is_set()
+                || sr.pe().bit_is_set(),
+        }
+    }
+
+    fn read_data(&mut self) -> u8 {
+        Self::regs().dr().read().dr().bits() as u8
+    }
+
+    fn write_data(&mut self, byte: u8) {
+        Self::regs().dr().write(|w| w.dr().set(u16::from(byte)));
+    }
+
+    fn set_tx_empty_interrupt(&mut self, enabled: bool) {
+        let cr1 = Self::regs().cr1();
+        // Written only when it changes: the interrupt is CR1's only writer after `init`.
+        if cr1.read().txeie().bit_is_set() != enabled {
+            cr1.modify(|_, w| w.txeie().bit(enabled));
+        }
+    }
+}
+
+/// The link: reads drain the receive queue, [`SerialLink::transmit`] fills the transmit
+/// queue.
 pub struct SerialLink {
     _private: (),
 }
@@ -50,9 +115,10 @@ pub fn init(usart: USART1, brr: Option<u16>) -> SerialLink {
         w.re().set_bit();
         w.rxneie().set_bit()
     });
-    critical_section::with(|cs| USART.borrow_ref_mut(cs).replace(usart));
+    // The peripheral token goes out of scope here: from now on the interrupt owns the
+    // registers.
     // Note(unsafe): unmasking may break a critical section that relies on this interrupt
-    // being masked; none does: the interrupt's shared state is all behind `critical_section`.
+    // being masked; none does: the interrupt shares only the lock-free queues.
     #[allow(unsafe_code)]
     unsafe {
         cortex_m::peripheral::NVIC::unmask(pac::Interrupt::USART1);
@@ -62,37 +128,27 @@ pub fn init(usart: USART1, brr: Option<u16>) -> SerialLink {
 
 /// Receive errors (hardware or queue overflow) since the last call.
 pub fn take_rx_errors() -> u32 {
-    RX_ERRORS.swap(0, Ordering::Relaxed)
+    LINK.take_rx_errors()
 }
 
 /// True when received bytes wait in the queue.
 pub fn rx_pending() -> bool {
-    critical_section::with(|cs| !RXQ.borrow_ref(cs).is_empty())
+    LINK.rx_pending()
 }
 
 #[interrupt]
 fn USART1() {
-    critical_section::with(|cs| {
-        let usart = USART.borrow_ref(cs);
-        let Some(u) = usart.as_ref() else {
-            return;
-        };
-        let sr = u.sr().read();
-        let error = sr.ore().bit_is_set()
-            || sr.nf().bit_is_set()
-            || sr.fe().bit_is_set()
-            || sr.pe().bit_is_set();
-        if error {
-            RX_ERRORS.fetch_add(1, Ordering::Relaxed);
-        }
-        if sr.rxne().bit_is_set() || error {
-            // Reading DR after SR clears RXNE and the error flags.
-            let byte = u.dr().read().dr().bits() as u8;
-            if sr.rxne().bit_is_set() && RXQ.borrow_ref_mut(cs).push_back(byte).is_err() {
-                RX_ERRORS.fetch_add(1, Ordering::Relaxed);
-            }
-        }
-    });
+    LINK.on_interrupt(&mut Usart1Registers(()));
+}
+
+impl SerialLink {
+    /// Queues `frame` whole for transmission and pends the USART1 interrupt, which sends
+    /// it; returns at once. [`QueueFull`] when it does not fit whole: nothing of it is sent.
+    pub fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
+        LINK.enqueue_frame(frame)?;
+        cortex_m::peripheral::NVIC::pend(pac::Interrupt::USART1);
+        Ok(())
+    }
 }
 
 impl embedded_io::ErrorType for SerialLink {
@@ -108,51 +164,17 @@ impl embedded_io::ReadReady for SerialLink {
 
 impl embedded_io::Read for SerialLink {
     /// Blocks until at least one byte is queued (embedded-io semantics), then takes as many
-    /// as fit.
+    /// as fit. The application reads only after [`embedded_io::ReadReady`] said bytes wait.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
         if buf.is_empty() {
             return Ok(0);
         }
         loop {
-            let n = critical_section::with(|cs| {
-                let mut q = RXQ.borrow_ref_mut(cs);
-                let mut n = 0;
-                for slot in buf.iter_mut() {
-                    match q.pop_front() {
-                        Some(b) => {
-                            *slot = b;
-                            n += 1;
-                        }
-                        None => break,
-                    }
-                }
-                n
-            });
+            let n = LINK.read(buf);
             if n > 0 {
                 return Ok(n);
             }
             cortex_m::asm::nop();
         }
-    }
-}
-
-fn with_usart<R>(f: impl FnOnce(&USART1) -> R) -> Option<R> {
-    critical_section::with(|cs| USART.borrow_ref(cs).as_ref().map(f))
-}
-
-impl embedded_io::Write for SerialLink {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        for &b in buf {
-            // Wait for the transmit register outside the critical section, so the receive
-            // interrupt is not held off for a byte time.
-            while with_usart(|u| u.sr().read().txe().bit_is_clear()).unwrap_or(false) {}
-            with_usart(|u| u.dr().write(|w| w.dr().set(u16::from(b))));
-        }
-        Ok(buf.len())
-    }
-
-    fn flush(&mut self) -> Result<(), Infallible> {
-        while with_usart(|u| u.sr().read().tc().bit_is_clear()).unwrap_or(false) {}
-        Ok(())
     }
 }
