@@ -437,6 +437,10 @@ impl Controller {
     /// new condition is flown one step after it arrives. Until it is called the step flies
     /// the design it has; whether the condition is inside the envelope the step decides
     /// itself, every step.
+    ///
+    /// Never inlined: one copy in the binary, and a function of its own for the control
+    /// task's static bound (its loops are declared by function).
+    #[inline(never)]
     pub fn follow_schedule(&mut self) -> bool {
         let s = &mut self.scheduled;
         if s.error.is_some() || s.condition == s.design_condition {
