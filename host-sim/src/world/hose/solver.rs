@@ -13,6 +13,8 @@
 /// pivoting: the matrices here are symmetric positive definite and diagonally dominant).
 pub(super) fn solve_tridiagonal(diag: &[f64], off: &[f64], rhs: &mut [f64], scratch: &mut [f64]) {
     let n = rhs.len();
+    // Cut to the lengths used, so that the loops carry no bounds checks.
+    let (diag, off, scratch) = (&diag[..n], &off[..n.saturating_sub(1)], &mut scratch[..n]);
     let mut pivot = diag[0];
     rhs[0] /= pivot;
     for k in 1..n {
