@@ -9,6 +9,8 @@
 //! the file's units here (degrees, lbf, slug, ft); they are converted to SI where the model is
 //! assembled.
 
+use std::sync::OnceLock;
+
 use serde::Deserialize;
 use thiserror::Error;
 
@@ -176,9 +178,16 @@ pub(crate) struct ActuatorData {
 }
 
 impl ModelData {
-    /// Parse and check the embedded data file.
+    /// Parse and check the embedded data file. The parse is done once per process and the
+    /// result copied (a campaign builds a model per run, and parsing the TOML cost more than a
+    /// hundred simulated steps); a failed parse is not kept, so every call reports it.
     pub(crate) fn embedded() -> Result<Self, ModelError> {
-        Self::parse(EMBEDDED_DATA_TOML)
+        static PARSED: OnceLock<ModelData> = OnceLock::new();
+        if let Some(data) = PARSED.get() {
+            return Ok(data.clone());
+        }
+        let data = Self::parse(EMBEDDED_DATA_TOML)?;
+        Ok(PARSED.get_or_init(|| data).clone())
     }
 
     fn parse(text: &str) -> Result<Self, ModelError> {

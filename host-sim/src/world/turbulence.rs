@@ -487,8 +487,12 @@ impl GustField {
         let frac = delay_steps - j0;
         let j0 = j0 as usize;
         let j1 = (j0 + 1).min(n - 1);
-        let a = self.history[(self.head + n - j0) % n];
-        let b = self.history[(self.head + n - j1) % n];
+        // `head < n` and `j1 <= n - 1`, so `head + n - j` is in 1..2n: one conditional
+        // subtraction is the remainder (an integer division was a noticeable part of a
+        // campaign's time: this runs for every hose link and step).
+        let wrap = |i: usize| if i >= n { i - n } else { i };
+        let a = self.history[wrap(self.head + n - j0)];
+        let b = self.history[wrap(self.head + n - j1)];
         Vector3::new(
             a[0] + frac * (b[0] - a[0]),
             a[1] + frac * (b[1] - a[1]),

@@ -1,0 +1,311 @@
+//! The refuelling hose and its drogue: a multi-link model that trails from the tanker's hose
+//! exit in the relative wind, carries gravity and aerodynamic drag, and moves the drogue the
+//! receiver has to hit.
+//!
+//! # Source
+//!
+//! Ro & Kamman, "Modeling and simulation of hose-paradrogue aerial refueling systems", JGCD
+//! 2010 (\[RK\]): a chain of rigid links with the hose mass lumped at the joints, link tensions
+//! from a tridiagonal solve along the hose, per-link skin-friction and cross-flow drag with
+//! Reynolds-number dependent coefficients, gravity, and the drogue's drag at the end. The
+//! parameter values and the coefficient laws are those of the paper authors' public
+//! simulation (\[R\], RflySim/RflySimAAR, `Origin_Paper_Figure_Sim/Ch11`), as collected in
+//! `docs/models.md` ("Hose and drogue"); the few places where we depart from it are listed on
+//! [`HoseDragLaw`] and [`HoseParams`]. The formulation and the code are ours.
+//!
+//! # Formulation
+//!
+//! - Nodes 0..=N at the link ends; node 0 is the hose exit, fixed at the origin. Each link's
+//!   mass (linear density times link length) is split equally between its two end nodes (the
+//!   half at the exit goes into the tanker); the drogue's mass is added to node N, which *is*
+//!   the drogue centre.
+//! - The aerodynamic force of each link is computed from the air velocity at its midpoint
+//!   minus the mean of its end nodes' velocities, split into the component along the link
+//!   (skin friction, on the wetted area `pi d l`) and normal to it (cross flow, on the
+//!   projected area `d l`), and shared equally by its end nodes. The drogue's drag,
+//!   `0.5 rho |v_rel|^2 (pi D^2 / 4) Cd` along the relative air velocity, and the external
+//!   force act on node N.
+//! - The links are inextensible: distance constraints `|p_k+1 - p_k| = l`. Their multipliers
+//!   (the tensions) solve the tridiagonal system `J M^-1 J^T mu = -(J M^-1 F + Jdot v)` by the
+//!   Thomas algorithm, O(N) and without pivoting (the matrix is symmetric and diagonally
+//!   dominant).
+//! - Classical RK4 on node positions and velocities, followed after every internal step by a
+//!   mass-weighted projection back onto the position and velocity constraints, so the link
+//!   lengths hold to round-off indefinitely. Internal steps are at most
+//!   [`HoseParams::max_internal_step_s`] and short enough that the fastest transverse wave of
+//!   the tensioned chain turns by at most [`MAX_WAVE_PHASE_PER_STEP_RAD`] per step (one
+//!   internal step per 0.01 s call at the defaults).
+//! - The air velocity field is sampled once per call of [`HoseDrogue::step`], at the link
+//!   midpoints and the drogue centre of the state at the start of the step (N + 1 calls), and
+//!   held over the step together with the external force.
+//!
+//! # Frame and units
+//!
+//! Everything is in the tanker frame (`docs/conventions.md`): origin at the hose exit, x
+//! forward, y right, z down, metres, seconds, newtons. The tanker flies straight and level
+//! at constant speed, so the frame is inertial; gravity is `(0, 0, +g)`. Calm air moves at
+//! `(-V, 0, 0)` relative to this frame.
+//!
+//! # Invariants
+//!
+//! - After construction and after every step, every link has its nominal length to round-off
+//!   (relative error below 1e-12 in practice; the tests demand 1e-6 after 60 s) and the node
+//!   velocities satisfy the velocity constraints.
+//! - Node 0 is at the origin with zero velocity.
+//! - `step` does not allocate; the same inputs give bit-identical states.
+//! - Links carry compression if they are pushed (no slack or buckling model): the model is
+//!   meant for a hose in tension, which [`HoseDrogue::link_tensions_n`] lets a caller check.
+//!
+//! # Layout
+//!
+//! The data flow of a step is `HoseDrogue::step` (this file: samples the air, picks the
+//! internal step) -> `dynamics` (RK4 on the node states, the accelerations from the forces of
+//! `drag` and the tensions of `solver`, then the constraint projections) -> the state and
+//! tensions stored here. Construction goes through `steady` (the static equilibrium, checked
+//! against `dynamics`).
+//!
+//! - `params`: the physical and numerical parameters, their defaults and validation, errors.
+//! - `steady`: the steady trail (static equilibrium) the hose starts in.
+//! - `dynamics`: the derived model constants, node accelerations, RK4 and the projections.
+//! - `drag`: the aerodynamic forces on a link and on the drogue, and the coefficient laws.
+//! - `solver`: the tridiagonal (Thomas) solve for the link tensions.
+//! - `vector`: the few 3-vector helpers on `nalgebra::Vector3<f64>` the others use, and the
+//!   tests that pin nalgebra's rounding to the arithmetic order the model was written in.
+
+mod drag;
+mod dynamics;
+mod params;
+mod solver;
+mod steady;
+#[cfg(test)]
+mod test_support;
+mod vector;
+
+use nalgebra::Vector3;
+
+use dynamics::{Model, Workspace};
+pub use params::*;
+use vector::all_finite;
+
+/// Upper bound on internal steps per call, so that absurd inputs cannot hang the simulator.
+const MAX_INTERNAL_STEPS_PER_CALL: usize = 10_000;
+
+/// The hose and drogue state: node positions and velocities, tanker frame.
+#[derive(Debug, Clone)]
+pub struct HoseDrogue {
+    params: HoseParams,
+    model: Model,
+    /// Node positions, m, nodes 0..=N (node 0 the fixed exit).
+    pos: Vec<Vector3<f64>>,
+    /// Node velocities, m/s.
+    vel: Vec<Vector3<f64>>,
+    /// Link tensions at the current state with the last step's air and force, N.
+    tensions_n: Vec<f64>,
+    /// Air velocity at the link midpoints (0..N) and the drogue (N), held over a step, m/s.
+    air: Vec<Vector3<f64>>,
+    ws: Workspace,
+}
+
+impl HoseDrogue {
+    /// Advances the state by `dt_s` seconds (positive and finite; a call with anything else
+    /// does nothing). The air velocity field (m/s, relative to the tanker frame, as a
+    /// function of the tanker-frame position in m) is sampled at the start of the step at the
+    /// link midpoints and the drogue centre, and held over the step with the external force
+    /// on the drogue (N, tanker axes: bow wave, turbulence force, contact).
+    ///
+    /// Non-finite air or force is a caller error: the state becomes non-finite (checked by
+    /// a debug assertion).
+    pub fn step(
+        &mut self,
+        dt_s: f64,
+        air_velocity_tanker_mps: &dyn Fn(&Vector3<f64>) -> Vector3<f64>,
+        drogue_force_tanker_n: &Vector3<f64>,
+    ) {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return;
+        }
+        self.sample_air(air_velocity_tanker_mps);
+        let force = *drogue_force_tanker_n;
+        debug_assert!(
+            all_finite(&force) && self.air.iter().all(all_finite),
+            "non-finite air velocity or drogue force"
+        );
+        let substeps = self.substeps(dt_s);
+        let h = dt_s / substeps as f64;
+        for _ in 0..substeps {
+            let Self {
+                model,
+                pos,
+                vel,
+                air,
+                ws,
+                ..
+            } = self;
+            model.rk4(h, pos, vel, air, force, ws);
+            model.project_positions(pos, ws);
+            model.project_velocities(pos, vel, ws);
+        }
+        let Self {
+            model,
+            pos,
+            vel,
+            air,
+            ws,
+            ..
+        } = self;
+        model.accelerations(pos, vel, air, force, ws);
+        self.store_tensions();
+    }
+
+    /// Drogue centre (node N), tanker frame, m.
+    pub fn drogue_centre_tanker_m(&self) -> Vector3<f64> {
+        self.pos[self.model.links]
+    }
+
+    /// Drogue velocity, tanker frame, m/s.
+    pub fn drogue_velocity_tanker_mps(&self) -> Vector3<f64> {
+        self.vel[self.model.links]
+    }
+
+    /// Unit vector along the drogue's axis: from the last hose node toward the drogue centre
+    /// (aft and down in the steady trail), tanker axes. The capture plane is perpendicular to
+    /// it through the drogue centre.
+    pub fn drogue_axis_tanker(&self) -> Vector3<f64> {
+        let n = self.model.links;
+        let d = self.pos[n] - self.pos[n - 1];
+        d * (1.0 / d.norm())
+    }
+
+    /// Node positions, tanker frame, m: N + 1 nodes from the hose exit (index 0, always the
+    /// origin) to the drogue centre (index N).
+    pub fn node_positions_tanker_m(&self) -> &[Vector3<f64>] {
+        &self.pos
+    }
+
+    /// Link tensions, N, from the exit (index 0) to the drogue (index N - 1), at the current
+    /// state with the air and drogue force of the last step (of the steady trail after
+    /// construction). Negative means compression: the model is then outside its validity.
+    pub fn link_tensions_n(&self) -> &[f64] {
+        &self.tensions_n
+    }
+
+    /// The parameters the hose was built with.
+    pub fn params(&self) -> &HoseParams {
+        &self.params
+    }
+
+    /// Samples the air field at the link midpoints and the drogue centre.
+    fn sample_air(&mut self, air: &dyn Fn(&Vector3<f64>) -> Vector3<f64>) {
+        let n = self.model.links;
+        for k in 0..n {
+            let mid = (self.pos[k] + self.pos[k + 1]) * 0.5;
+            self.air[k] = air(&mid);
+        }
+        self.air[n] = air(&self.pos[n]);
+    }
+
+    /// Internal steps for a call of `dt_s`: at most `max_internal_step_s` each, and short
+    /// enough for the fastest transverse wave at the current tensions.
+    fn substeps(&self, dt_s: f64) -> usize {
+        let max_tension = self.tensions_n.iter().fold(0.0_f64, |m, t| m.max(t.abs()));
+        // Highest eigenfrequency of a chain of masses m joined by links of length l under
+        // tension T is below 2 sqrt(T / (m l)).
+        let omega_max = 2.0 * (max_tension * self.model.max_inv_mass / self.model.link_len).sqrt();
+        let by_step = (dt_s / self.params.max_internal_step_s).ceil();
+        let by_wave = (dt_s * omega_max / MAX_WAVE_PHASE_PER_STEP_RAD).ceil();
+        let n = by_step.max(by_wave).max(1.0);
+        if n.is_finite() {
+            (n as usize).min(MAX_INTERNAL_STEPS_PER_CALL)
+        } else {
+            MAX_INTERNAL_STEPS_PER_CALL
+        }
+    }
+
+    /// Copies the multipliers of the last acceleration solve into tensions.
+    fn store_tensions(&mut self) {
+        for k in 0..self.model.links {
+            let len = (self.pos[k + 1] - self.pos[k]).norm();
+            self.tensions_n[k] = -self.ws.mu[k] * len;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_support::*;
+    use super::*;
+
+    #[test]
+    #[ignore = "sensitivity table and timing: cargo test --release -p host-sim hose -- --ignored --nocapture"]
+    fn report_sensitivity_and_step_cost() {
+        let cases: [(&str, HoseParams); 6] = [
+            ("default", HoseParams::default()),
+            ("authors' rho, nu, g", HoseParams::authors()),
+            (
+                "rho 0.8443, rest default",
+                HoseParams {
+                    air_density_kg_per_m3: AUTHORS_AIR_DENSITY_KG_PER_M3,
+                    ..HoseParams::default()
+                },
+            ),
+            (
+                "Cd 1.2 (independence principle), Cf 0.0049",
+                HoseParams {
+                    hose_drag_law: HoseDragLaw::Constant {
+                        cross_flow_cd: 1.2,
+                        skin_friction_cf: 0.0049,
+                    },
+                    ..HoseParams::default()
+                },
+            ),
+            (
+                "Cd 0.206, Cf 0.0041 ([R]'s Re_f / sin)",
+                HoseParams {
+                    hose_drag_law: HoseDragLaw::Constant {
+                        cross_flow_cd: 0.206,
+                        skin_friction_cf: 0.0041,
+                    },
+                    ..HoseParams::default()
+                },
+            ),
+            (
+                "40 links",
+                HoseParams {
+                    link_count: 40,
+                    ..HoseParams::default()
+                },
+            ),
+        ];
+        for (name, p) in cases {
+            let h = calm_trail(p);
+            let d = h.drogue_centre_tanker_m();
+            println!(
+                "{name:48} drogue [{:.3}, {:.3}, {:.3}] m, exit tension {:.0} N",
+                d.x,
+                d.y,
+                d.z,
+                h.link_tensions_n()[0]
+            );
+        }
+        let gusts = Gusts::new(3, 1.8);
+        let mut h = calm_trail(HoseParams::default());
+        let steps = 20_000;
+        let start = std::time::Instant::now();
+        for i in 0..steps {
+            let t = i as f64 * DT_S;
+            h.step(DT_S, &|p| gusts.air(t, p), &Vector3::zeros());
+        }
+        let turb = start.elapsed().as_secs_f64() / steps as f64;
+        let mut h = calm_trail(HoseParams::default());
+        let start = std::time::Instant::now();
+        for _ in 0..steps {
+            h.step(DT_S, &calm, &Vector3::zeros());
+        }
+        let calm_cost = start.elapsed().as_secs_f64() / steps as f64;
+        println!(
+            "step(0.01): {:.2} us calm air, {:.2} us with the 36-mode gust field (its own cost included)",
+            calm_cost * 1e6,
+            turb * 1e6
+        );
+    }
+}
