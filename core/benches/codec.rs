@@ -14,7 +14,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Uplink, encode_downlink, encode_uplink,
+    Downlink, FrameDecoder, MAX_FRAME_LEN, Uplink, encode_downlink, encode_uplink,
 };
 use ibvs_core::{Controller, ControllerConfig, ControllerInput, ModeRequest};
 
@@ -42,11 +42,7 @@ fn messages() -> (Uplink, Downlink) {
         seq: 20,
         echo_seq: Some(20),
         output,
-        counters: *controller.counters(),
-        link: LinkCounters {
-            frames_ok: 20,
-            ..LinkCounters::default()
-        },
+        config_id: 0x1234_5678,
         ..Downlink::default()
     };
     (up, down)

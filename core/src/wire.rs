@@ -5,8 +5,15 @@
 //! Place in the data flow: measurement frames ([`Uplink`]: the step's [`ControllerInput`] and
 //! a link sequence number) come in; the firmware steps the controller and sends a command
 //! frame ([`Downlink`]: the [`ControllerOutput`], the echo of the measurement frame's sequence
-//! number, the controller's [`Counters`], the link's own [`LinkCounters`], status bits, the
-//! [`Cost`] of the step, and why the flight computer last reset and what clock it runs on).
+//! number, status bits, the [`Cost`] of the step and the configuration's id). What changes
+//! rarely travels apart, in telemetry frames ([`Telemetry`]: the controller's [`Counters`], the
+//! link's own [`LinkCounters`], why the flight computer last reset and what clock it runs on):
+//! the flight computer sends one after its boot frame, on request, and in the free-running
+//! schedule whenever a counter changed (at most every [`TELEMETRY_MIN_PERIODS`] control
+//! periods) and at least every [`TELEMETRY_MAX_PERIODS`]. The counters only grow, so a later
+//! telemetry frame carries everything an earlier one did: nothing is lost by sending them
+//! less often than every step, and the command frame of every step stays small (its encoding
+//! is on the control task's deadline; a telemetry frame's is not).
 //!
 //! # Frame layout
 //!
@@ -25,6 +32,8 @@
 //! | `W` 0x57 configuration write | peer to flight computer | [`ControllerConfig`] | a `K` frame |
 //! | `R` 0x52 configuration read | peer to flight computer | empty | a `K` frame |
 //! | `K` 0x4B configuration report | flight computer to peer | [`ConfigReport`] | - |
+//! | `Q` 0x51 telemetry request | peer to flight computer | empty | a `T` frame |
+//! | `T` 0x54 telemetry | flight computer to peer | [`Telemetry`] | - |
 //!
 //! # Configuration
 //!
@@ -40,8 +49,9 @@
 //! log says which configuration flew each step.//!
 //! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
 //! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 82 to 90 bytes on the wire, a command frame 146 to 354 (measured by
-//! the tests with the largest values of every field).
+//! A measurement frame is 82 to 90 bytes on the wire, a command frame 101 to 137, a telemetry
+//! frame 55 to 235 (measured by the tests with the smallest and largest values of every
+//! field).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
 //! lost sync (garbage, a cut frame) resynchronises at the next zero. An empty frame (two zeros
@@ -66,7 +76,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 7;
+pub const PROTOCOL_VERSION: u8 = 8;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 640;
@@ -76,10 +86,10 @@ pub const MAX_FRAME_LEN: usize = 640;
 /// with the terminating zero such a frame is at most [`MAX_FRAME_LEN`].
 pub const MAX_PAYLOAD_LEN: usize = MAX_FRAME_LEN - 4;
 
-/// Largest payload of a measurement or command frame (the frames of every step), bytes: the
-/// largest command frame's 352-byte payload with a margin (tested). Their encoder clears a
-/// scratch buffer of this size, not of [`MAX_PAYLOAD_LEN`].
-pub const STEP_PAYLOAD_LEN: usize = 360;
+/// Largest payload of a measurement or command frame (the frames of every step), bytes (the
+/// largest of each, every field at its longest encoding, is under it: tested). At most one
+/// COBS block (254 bytes), so these frames are encoded in place.
+pub const STEP_PAYLOAD_LEN: usize = 200;
 
 /// Header bytes before the body: version and kind.
 pub const HEADER_LEN: usize = 2;
@@ -89,9 +99,6 @@ pub const CRC_LEN: usize = 4;
 
 /// Largest postcard body, bytes.
 pub const MAX_BODY_LEN: usize = MAX_PAYLOAD_LEN - HEADER_LEN - CRC_LEN;
-
-/// COBS bytes a frame may have before its terminating zero.
-const MAX_ENCODED_LEN: usize = MAX_FRAME_LEN - 1;
 
 /// The frame check: CRC-32C (Castagnoli), table-driven (1 KiB table in flash).
 pub const CRC32C: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
@@ -110,6 +117,10 @@ pub enum FrameKind {
     ConfigRead,
     /// [`ConfigReport`]: flight computer to peer, the answer to a write or a read.
     ConfigReport,
+    /// Empty body: peer to flight computer, asking for a telemetry frame now.
+    TelemetryRequest,
+    /// [`Telemetry`]: flight computer to peer.
+    Telemetry,
 }
 
 impl FrameKind {
@@ -121,6 +132,8 @@ impl FrameKind {
             Self::ConfigWrite => b'W',
             Self::ConfigRead => b'R',
             Self::ConfigReport => b'K',
+            Self::TelemetryRequest => b'Q',
+            Self::Telemetry => b'T',
         }
     }
 
@@ -132,6 +145,8 @@ impl FrameKind {
             b'W' => Some(Self::ConfigWrite),
             b'R' => Some(Self::ConfigRead),
             b'K' => Some(Self::ConfigReport),
+            b'Q' => Some(Self::TelemetryRequest),
+            b'T' => Some(Self::Telemetry),
             _ => None,
         }
     }
@@ -264,8 +279,8 @@ pub struct LinkCounters {
 }
 
 /// Why the flight computer last reset, as its board read it at boot (one byte on the wire).
-/// Every command frame carries it ([`Downlink::reset_cause`]), so a peer that connects late
-/// (hardware in the loop opens the link after the boot frame) still learns it.
+/// Every telemetry frame carries it ([`Telemetry::reset_cause`]), so a peer that connects
+/// late (hardware in the loop opens the link after the boot frame) still learns it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ResetCause {
@@ -307,7 +322,7 @@ impl ResetCause {
 }
 
 /// The clock the flight computer runs on, as its board set it up at boot (one byte on the
-/// wire, [`Downlink::clock`]).
+/// wire, [`Telemetry::clock`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ClockSource {
@@ -370,11 +385,12 @@ impl LinkCounters {
     }
 }
 
-/// Command frame: one step's output and everything a ground engineer needs to debug it.
+/// Command frame: one step's output (every control period).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Downlink {
-    /// Command frame counter, 0 for the boot frame, +1 per frame sent (wraps).
+    /// Frame counter, 0 for the boot frame, +1 per frame the flight computer sends (command,
+    /// telemetry and configuration report frames share it; wraps).
     pub seq: u32,
     /// [`Uplink::seq`] of the measurement frame the step used; `None` before the first.
     pub echo_seq: Option<u32>,
@@ -382,19 +398,41 @@ pub struct Downlink {
     pub link_status: LinkStatus,
     /// The step's output: commands, mode, breakaway reason, status bits, errors.
     pub output: ControllerOutput,
-    /// The controller's counters after the step.
-    pub counters: Counters,
-    /// The link's counters, including every error since the previous frame.
-    pub link: LinkCounters,
     /// What the step cost.
     pub cost: Cost,
     /// [`config_id`] of the configuration the controller flies.
     pub config_id: u32,
-    /// Why the flight computer last reset (read at boot; the same in every frame).
+}
+
+/// Telemetry frame: the counters of the controller and of the link, and what the flight
+/// computer found at boot. Sent after the boot frame, on request ([`FrameKind::TelemetryRequest`]),
+/// and in the free-running schedule whenever a counter changed (at most every
+/// [`TELEMETRY_MIN_PERIODS`]) and at least every [`TELEMETRY_MAX_PERIODS`] control periods.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Telemetry {
+    /// Frame counter, shared with the command frames ([`Downlink::seq`]).
+    pub seq: u32,
+    /// The controller's counters after its latest step ([`Counters::steps`] says which).
+    pub counters: Counters,
+    /// The link's counters, every rejected frame and transmit failure included.
+    pub link: LinkCounters,
+    /// [`config_id`] of the configuration the controller flies.
+    pub config_id: u32,
+    /// Why the flight computer last reset (read at boot).
     pub reset_cause: ResetCause,
-    /// The clock it runs on (set at boot; the same in every frame).
+    /// The clock it runs on (set at boot).
     pub clock: ClockSource,
 }
+
+/// Free-running: a changed counter is sent at most this often, control periods (10 = 200 ms,
+/// 5 Hz): the telemetry frame's encoding and bytes are not spent every step.
+pub const TELEMETRY_MIN_PERIODS: u32 = 10;
+
+/// Free-running: a telemetry frame at least this often, control periods (50 = 1 s), changed or
+/// not, so a peer that joins late (hardware in the loop) learns the counters and the boot's
+/// findings within a second.
+pub const TELEMETRY_MAX_PERIODS: u32 = 50;
 
 /// A field path inside a [`ConfigReport`], with the validation's note on the rule broken
 /// (the longest the validation names is 88 bytes; a longer one would be cut, never dropped).
@@ -499,6 +537,8 @@ pub enum PeerMessage {
     ConfigWrite(ControllerConfig),
     /// A configuration read.
     ConfigRead,
+    /// A telemetry request.
+    TelemetryRequest,
 }
 
 /// A frame the peer takes: what the flight computer sends.
@@ -512,6 +552,8 @@ pub enum FlightComputerMessage {
     Command(Downlink),
     /// A configuration report.
     ConfigReport(ConfigReport),
+    /// A telemetry frame.
+    Telemetry(Telemetry),
 }
 
 /// The identifier of a configuration: CRC-32C of its postcard encoding. Equal
@@ -617,37 +659,143 @@ fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Result<usize, WireError> {
     Ok(out)
 }
 
-/// Encodes `msg` as a `kind` frame (COBS, ending in its zero) into `out`; returns its length.
-/// `N` is the scratch payload's size: [`STEP_PAYLOAD_LEN`] for the frames of every step (a
-/// smaller buffer to clear each frame), [`MAX_PAYLOAD_LEN`] for the others.
-fn encode_frame<T: Serialize, const N: usize>(
+/// postcard's output over a slice, by index: a push or a copy checks its bounds once, and a
+/// copy of a known small size (an `f32`'s four bytes) compiles to plain stores.
+struct Cursor<'a> {
+    buf: &'a mut [u8],
+    len: usize,
+}
+
+impl postcard::ser_flavors::Flavor for Cursor<'_> {
+    type Output = usize;
+
+    #[inline(always)]
+    fn try_push(&mut self, b: u8) -> postcard::Result<()> {
+        let slot = self
+            .buf
+            .get_mut(self.len)
+            .ok_or(postcard::Error::SerializeBufferFull)?;
+        *slot = b;
+        self.len += 1;
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        let end = self.len + data.len();
+        self.buf
+            .get_mut(self.len..end)
+            .ok_or(postcard::Error::SerializeBufferFull)?
+            .copy_from_slice(data);
+        self.len = end;
+        Ok(())
+    }
+
+    fn finalize(self) -> postcard::Result<usize> {
+        Ok(self.len)
+    }
+}
+
+/// Largest payload encoded in place ([`cobs_in_place`]): one COBS block, bytes. Every
+/// measurement and command frame's payload is at most [`STEP_PAYLOAD_LEN`], under it (tested).
+const IN_PLACE_PAYLOAD_LEN: usize = 254;
+const _: () = assert!(STEP_PAYLOAD_LEN <= IN_PLACE_PAYLOAD_LEN);
+
+/// COBS in place: `frame[1..=n]` holds the payload (`n` at most [`IN_PLACE_PAYLOAD_LEN`], so
+/// no block is full and no code byte is inserted); each zero of the payload becomes the
+/// distance to the next zero (or to the end), `frame[0]` the distance to the first, and
+/// `frame[n + 1]` the terminating zero. One pass over the payload, no copy.
+fn cobs_in_place(frame: &mut [u8], n: usize) -> Result<(), WireError> {
+    if n > IN_PLACE_PAYLOAD_LEN {
+        return Err(WireError::TooLarge);
+    }
+    let frame = frame.get_mut(..n + 2).ok_or(WireError::BufferTooSmall)?;
+    let mut code_at = 0;
+    // An exclusive range: `1..=n` costs its exhaustion flag every iteration.
+    for i in 1..n + 1 {
+        if frame.get(i) == Some(&0) {
+            if let Some(c) = frame.get_mut(code_at) {
+                *c = (i - code_at) as u8;
+            }
+            code_at = i;
+        }
+    }
+    if let Some(c) = frame.get_mut(code_at) {
+        *c = (n + 1 - code_at) as u8;
+    }
+    if let Some(z) = frame.get_mut(n + 1) {
+        *z = 0;
+    }
+    Ok(())
+}
+
+/// Writes `msg`'s payload as a `kind` frame's (version, kind, postcard body, CRC) at
+/// `out[1..]`, where COBS leaves it, and returns its length: at most `max_payload` bytes
+/// ([`WireError::TooLarge`] past it; [`WireError::BufferTooSmall`] when `out` is the limit).
+fn write_payload<T: Serialize>(
+    kind: FrameKind,
+    msg: &T,
+    out: &mut [u8],
+    max_payload: usize,
+) -> Result<usize, WireError> {
+    let (head, rest) = out
+        .split_at_mut_checked(1 + HEADER_LEN)
+        .ok_or(WireError::BufferTooSmall)?;
+    head[1] = PROTOCOL_VERSION;
+    head[2] = kind.byte();
+    let max_body = max_payload - HEADER_LEN - CRC_LEN;
+    let room = rest.len().min(max_body + CRC_LEN).saturating_sub(CRC_LEN);
+    let body = rest.get_mut(..room).ok_or(WireError::BufferTooSmall)?;
+    let body_len =
+        postcard::serialize_with_flavor(msg, Cursor { buf: body, len: 0 }).map_err(|_| {
+            if room < max_body {
+                WireError::BufferTooSmall
+            } else {
+                WireError::TooLarge
+            }
+        })?;
+    let data_len = HEADER_LEN + body_len;
+    let crc = CRC32C.checksum(out.get(1..=data_len).ok_or(WireError::TooLarge)?);
+    out.get_mut(1 + data_len..1 + data_len + CRC_LEN)
+        .ok_or(WireError::BufferTooSmall)?
+        .copy_from_slice(&crc.to_le_bytes());
+    Ok(data_len + CRC_LEN)
+}
+
+/// Encodes `msg` as a `kind` frame of any size (COBS, ending in its zero) into `out`; returns
+/// its length. A payload of at most [`IN_PLACE_PAYLOAD_LEN`] bytes is COBS-encoded where it
+/// lies ([`cobs_in_place`]); a longer one (a configuration) is copied out and encoded back
+/// block by block ([`cobs_encode`]).
+fn encode_frame<T: Serialize>(
     kind: FrameKind,
     msg: &T,
     out: &mut [u8],
 ) -> Result<usize, WireError> {
-    let mut payload = [0u8; N];
-    let (header, rest) = payload.split_at_mut(HEADER_LEN);
-    header.copy_from_slice(&[PROTOCOL_VERSION, kind.byte()]);
-    let body = rest
-        .get_mut(..N.saturating_sub(HEADER_LEN + CRC_LEN))
-        .ok_or(WireError::TooLarge)?;
-    let body_len = postcard::to_slice(msg, body)
-        .map_err(|_| WireError::TooLarge)?
-        .len();
-    // The body is at most MAX_BODY_LEN bytes, so the ranges below are inside `payload`;
-    // `get` keeps a panic path out of the firmware (its link-time no-panic check).
-    let data_len = HEADER_LEN + body_len;
-    let crc = CRC32C.checksum(payload.get(..data_len).ok_or(WireError::TooLarge)?);
-    payload
-        .get_mut(data_len..data_len + CRC_LEN)
-        .ok_or(WireError::TooLarge)?
-        .copy_from_slice(&crc.to_le_bytes());
-    let framed = payload
-        .get(..data_len + CRC_LEN)
-        .ok_or(WireError::TooLarge)?;
-    let n = cobs_encode(framed, out)?;
+    let payload_len = write_payload(kind, msg, out, MAX_PAYLOAD_LEN)?;
+    if payload_len <= IN_PLACE_PAYLOAD_LEN {
+        cobs_in_place(out, payload_len)?;
+        return Ok(payload_len + 2);
+    }
+    let mut payload = [0u8; MAX_PAYLOAD_LEN];
+    let payload = payload.get_mut(..payload_len).ok_or(WireError::TooLarge)?;
+    payload.copy_from_slice(out.get(1..=payload_len).ok_or(WireError::TooLarge)?);
+    let n = cobs_encode(payload, out)?;
     *out.get_mut(n).ok_or(WireError::BufferTooSmall)? = 0;
     Ok(n + 1)
+}
+
+/// Encodes `msg` as a frame of one COBS block (a payload of at most
+/// [`IN_PLACE_PAYLOAD_LEN`] bytes, [`WireError::TooLarge`] past it), in place: the encoder of
+/// the frames of every step (measurement, command, telemetry), with no copy and no general
+/// path in its code.
+fn encode_step_frame<'a, T: Serialize>(
+    kind: FrameKind,
+    msg: &T,
+    out: &'a mut [u8],
+) -> Result<&'a [u8], WireError> {
+    let payload_len = write_payload(kind, msg, out, IN_PLACE_PAYLOAD_LEN)?;
+    cobs_in_place(out, payload_len)?;
+    framed(out, payload_len + 2)
 }
 
 /// The first `n` bytes of `out`: the frame [`encode_frame`] wrote (`n` fits, as that
@@ -664,7 +812,7 @@ pub fn encode_message<'a, T: Serialize>(
     body: &T,
     out: &'a mut [u8],
 ) -> Result<&'a [u8], WireError> {
-    let n = encode_frame::<_, MAX_PAYLOAD_LEN>(kind, body, out)?;
+    let n = encode_frame(kind, body, out)?;
     framed(out, n)
 }
 
@@ -694,15 +842,24 @@ pub fn encode_config_report<'a>(
 /// Encodes a measurement frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
 /// the frame, ending in its `0x00`.
 pub fn encode_uplink<'a>(msg: &Uplink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
-    let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Measurement, msg, out)?;
-    framed(out, n)
+    encode_step_frame(FrameKind::Measurement, msg, out)
 }
 
 /// Encodes a command frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns the
 /// frame, ending in its `0x00`.
 pub fn encode_downlink<'a>(msg: &Downlink, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
-    let n = encode_frame::<_, STEP_PAYLOAD_LEN>(FrameKind::Command, msg, out)?;
-    framed(out, n)
+    encode_step_frame(FrameKind::Command, msg, out)
+}
+
+/// Encodes a telemetry frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
+/// the frame, ending in its `0x00`.
+pub fn encode_telemetry<'a>(t: &Telemetry, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
+    encode_step_frame(FrameKind::Telemetry, t, out)
+}
+
+/// Encodes a telemetry request into `out`; returns the frame, ending in its `0x00`.
+pub fn encode_telemetry_request(out: &mut [u8]) -> Result<&[u8], WireError> {
+    encode_message(FrameKind::TelemetryRequest, &(), out)
 }
 
 /// A frame that passed COBS, length, CRC and version checks: its kind and postcard body.
@@ -729,6 +886,15 @@ impl Payload<'_> {
         }
     }
 
+    /// An empty body, as a read or a request carries ([`WireError::Malformed`] otherwise).
+    pub fn empty(&self) -> Result<(), WireError> {
+        if self.body.is_empty() {
+            Ok(())
+        } else {
+            Err(WireError::Malformed)
+        }
+    }
+
     /// The measurement message, or why not.
     pub fn uplink(&self) -> Result<Uplink, WireError> {
         Self::parse(self.body, self.kind, FrameKind::Measurement)
@@ -748,7 +914,13 @@ impl Payload<'_> {
             FrameKind::ConfigWrite => config_from_bytes(self.body).map(PeerMessage::ConfigWrite),
             FrameKind::ConfigRead => Self::parse::<()>(self.body, self.kind, FrameKind::ConfigRead)
                 .map(|()| PeerMessage::ConfigRead),
-            FrameKind::Command | FrameKind::ConfigReport => Err(WireError::WrongKind),
+            FrameKind::TelemetryRequest => {
+                Self::parse::<()>(self.body, self.kind, FrameKind::TelemetryRequest)
+                    .map(|()| PeerMessage::TelemetryRequest)
+            }
+            FrameKind::Command | FrameKind::ConfigReport | FrameKind::Telemetry => {
+                Err(WireError::WrongKind)
+            }
         }
     }
 
@@ -758,6 +930,8 @@ impl Payload<'_> {
             FrameKind::Command => self.downlink().map(FlightComputerMessage::Command),
             FrameKind::ConfigReport => Self::parse(self.body, self.kind, FrameKind::ConfigReport)
                 .map(FlightComputerMessage::ConfigReport),
+            FrameKind::Telemetry => Self::parse(self.body, self.kind, FrameKind::Telemetry)
+                .map(FlightComputerMessage::Telemetry),
             _ => Err(WireError::WrongKind),
         }
     }
@@ -827,61 +1001,109 @@ impl FrameDecoder {
         self.encoded == 0 && self.discard.is_none()
     }
 
-    fn push(&mut self, b: u8) {
-        match self.buf.get_mut(self.len) {
-            Some(slot) => {
-                *slot = b;
-                self.len += 1;
-            }
-            // Unreachable while MAX_ENCODED_LEN - 1 <= MAX_PAYLOAD_LEN (decoded < encoded),
-            // but handled: the frame is too long.
-            None => self.discard = Some(WireError::Oversize),
-        }
+    /// Rejects the frame being received: the rest up to the next zero is skipped.
+    fn reject(&mut self, e: WireError) {
+        self.discard = Some(e);
+        self.remaining = 0;
     }
 
     /// Feeds one byte. Returns `None` inside a frame and for empty frames; at a frame's
     /// terminating zero, its checked payload or the reason it was rejected.
     pub fn feed(&mut self, byte: u8) -> Option<Result<Payload<'_>, WireError>> {
-        if byte == 0 {
-            let (len, encoded, remaining, discard) =
-                (self.len, self.encoded, self.remaining, self.discard);
-            self.len = 0;
-            self.encoded = 0;
-            self.remaining = 0;
-            self.zero_pending = false;
-            self.discard = None;
-            return match discard {
-                Some(e) => Some(Err(e)),
-                None if encoded == 0 => None,
-                None if remaining != 0 => Some(Err(WireError::Cobs)),
-                // `len` never exceeds the buffer (`push`); `get` keeps a panic path out of
-                // the firmware (its link-time no-panic check, firmware/src/bin/nopanic.rs).
-                None => Some(
-                    self.buf
-                        .get(..len)
-                        .map_or(Err(WireError::Oversize), check_payload),
-                ),
-            };
-        }
+        self.feed_slice(core::slice::from_ref(&byte)).1
+    }
+
+    /// Feeds received bytes up to the end of the first frame among them: how many it took,
+    /// and (when a terminating zero among them ended a frame) that frame's checked payload or
+    /// the reason it was rejected. Bytes after that zero are left for the next call; an empty
+    /// frame (an idle zero) ends the call with nothing. The same as [`FrameDecoder::feed`]
+    /// byte by byte, in one pass.
+    pub fn feed_slice(&mut self, bytes: &[u8]) -> (usize, Option<Result<Payload<'_>, WireError>>) {
+        let (taken, ended) = self.take(bytes);
+        let frame = ended.map(|r| {
+            r.and_then(|len| {
+                self.buf
+                    .get(..len)
+                    .map_or(Err(WireError::Oversize), check_payload)
+            })
+        });
+        (taken, frame)
+    }
+
+    /// [`FrameDecoder::feed_slice`] up to the payload's check: how many bytes it took and,
+    /// at a frame's end, the payload's length (or the rejection). One pass, a byte an
+    /// iteration, with the decoder's state in locals (written back once): a zero ends the
+    /// pass, a code byte starts a block, a data byte is stored.
+    fn take(&mut self, bytes: &[u8]) -> (usize, Option<Result<usize, WireError>>) {
         if self.discard.is_some() {
-            return None;
+            return self.skip(bytes);
         }
-        self.encoded += 1;
-        if self.encoded > MAX_ENCODED_LEN {
-            self.discard = Some(WireError::Oversize);
-            return None;
-        }
-        if self.remaining == 0 {
-            if self.zero_pending {
-                self.push(0);
+        let mut len = self.len;
+        let (mut remaining, mut zero_pending) = (self.remaining, self.zero_pending);
+        let mut end = bytes.len();
+        for (i, &byte) in bytes.iter().enumerate() {
+            if byte == 0 {
+                end = i;
+                break;
             }
-            self.remaining = byte - 1;
-            self.zero_pending = byte != 0xFF;
-        } else {
-            self.push(byte);
-            self.remaining -= 1;
+            let put = if remaining != 0 {
+                remaining -= 1;
+                Some(byte)
+            } else {
+                remaining = byte - 1;
+                let pending = zero_pending;
+                zero_pending = byte != 0xFF;
+                pending.then_some(0)
+            };
+            // A payload past the buffer rejects the frame. That is also every frame over
+            // MAX_FRAME_LEN: the first MAX_FRAME_LEN bytes of an encoding decode to at least
+            // MAX_FRAME_LEN - 3 (a code byte a block, 0xFF blocks add no zero).
+            let stored = match put {
+                None => true,
+                Some(v) => self.buf.get_mut(len).map(|slot| *slot = v).is_some(),
+            };
+            if !stored {
+                self.reject(WireError::Oversize);
+                let (taken, ended) = self.skip(bytes.get(i + 1..).unwrap_or(&[]));
+                return (i + 1 + taken, ended);
+            }
+            len += usize::from(put.is_some());
         }
-        None
+        (self.len, self.encoded) = (len, self.encoded + end);
+        (self.remaining, self.zero_pending) = (remaining, zero_pending);
+        match bytes.get(end) {
+            Some(_) => (end + 1, self.finish()),
+            None => (end, None),
+        }
+    }
+
+    /// A rejected frame's bytes, skipped up to its zero. Out of line: a rare path, and one
+    /// copy of its loop for the static bound (`target-bench`).
+    #[inline(never)]
+    fn skip(&mut self, bytes: &[u8]) -> (usize, Option<Result<usize, WireError>>) {
+        match bytes.iter().position(|&b| b == 0) {
+            Some(z) => (z + 1, self.finish()),
+            None => (bytes.len(), None),
+        }
+    }
+
+    /// The terminating zero: the frame's payload length, its rejection, or `None` for an
+    /// empty frame (idle fill). The decoder is at a frame boundary after it (its buffer still
+    /// holds the payload).
+    fn finish(&mut self) -> Option<Result<usize, WireError>> {
+        let (len, encoded, remaining, discard) =
+            (self.len, self.encoded, self.remaining, self.discard);
+        self.len = 0;
+        self.encoded = 0;
+        self.remaining = 0;
+        self.zero_pending = false;
+        self.discard = None;
+        match discard {
+            Some(e) => Some(Err(e)),
+            None if encoded == 0 => None,
+            None if remaining != 0 => Some(Err(WireError::Cobs)),
+            None => Some(Ok(len)),
+        }
     }
 }
 
@@ -961,8 +1183,8 @@ mod tests {
         }
     }
 
-    /// Every field at its longest postcard encoding.
-    fn largest_downlink() -> Downlink {
+    /// A command and a telemetry frame with every field at its longest postcard encoding.
+    fn largest_frames() -> (Downlink, Telemetry) {
         let m = u32::MAX;
         let counters = Counters {
             steps: m,
@@ -1040,23 +1262,39 @@ mod tests {
             predicted_miss_m: 1.0,
             envelope_error: Some(ScheduleError::AltitudeHigh),
         };
-        Downlink {
-            seq: m,
-            echo_seq: Some(m),
-            link_status: LinkStatus(u8::MAX),
-            output,
-            counters,
-            link,
-            cost: Cost {
-                unit: CostUnit::Cycles,
-                step: m,
-                decode: m,
-                encode_prev: m,
+        (
+            Downlink {
+                seq: m,
+                echo_seq: Some(m),
+                link_status: LinkStatus(u8::MAX),
+                output,
+                cost: Cost {
+                    unit: CostUnit::Cycles,
+                    step: m,
+                    decode: m,
+                    encode_prev: m,
+                },
+                config_id: m,
             },
-            config_id: m,
-            reset_cause: ResetCause::LowPower,
-            clock: ClockSource::InternalFallback,
-        }
+            Telemetry {
+                seq: m,
+                counters,
+                link,
+                config_id: m,
+                reset_cause: ResetCause::LowPower,
+                clock: ClockSource::InternalFallback,
+            },
+        )
+    }
+
+    /// Every field at its longest postcard encoding.
+    fn largest_downlink() -> Downlink {
+        largest_frames().0
+    }
+
+    /// Every counter at its largest.
+    fn largest_telemetry() -> Telemetry {
+        largest_frames().1
     }
 
     /// A configuration report at its longest: the longest field path, every counter at its
@@ -1118,6 +1356,21 @@ mod tests {
             .collect()
     }
 
+    /// COBS bytes a frame may have before its terminating zero.
+    const MAX_ENCODED_LEN: usize = MAX_FRAME_LEN - 1;
+
+    /// Bytes a COBS decoder outputs from `frame` (no zero in it) before it ends or fails:
+    /// a block's data bytes, present or not, and the zero between two blocks.
+    fn decoded_before_error(frame: &[u8]) -> usize {
+        let (mut at, mut out) = (0, 0);
+        while let Some(&code) = frame.get(at) {
+            let data = (usize::from(code) - 1).min(frame.len() - at - 1);
+            at += 1 + data;
+            out += data + usize::from(code != 0xFF && at < frame.len());
+        }
+        out
+    }
+
     #[test]
     fn uplink_round_trips_bit_for_bit() {
         let mut buf = [0u8; MAX_FRAME_LEN];
@@ -1149,6 +1402,22 @@ mod tests {
         let frame = encode_downlink(&m, &mut buf).unwrap();
         assert!(frame.len() <= MAX_FRAME_LEN);
         assert_eq!(decode_downlink(frame).unwrap(), m);
+        // The measurement frame's too: both are encoded in place (one COBS block).
+        let mut up = uplink();
+        up.input.measurement.probe_tip = Some([f32::MAX; 2]);
+        let up_body = postcard::to_slice(&up, &mut [0u8; 1024]).unwrap().len();
+        assert!(
+            HEADER_LEN + up_body + CRC_LEN <= STEP_PAYLOAD_LEN,
+            "{up_body}"
+        );
+        // Telemetry, every counter at its largest: one frame.
+        let t = largest_telemetry();
+        let frame = encode_telemetry(&t, &mut buf).unwrap();
+        let telemetry_len = frame.len();
+        assert_eq!(
+            decode_flight_computer_message(frame).unwrap(),
+            FlightComputerMessage::Telemetry(t)
+        );
         // The documented sizes (module doc): the extremes of both kinds.
         let small = encode_downlink(&Downlink::default(), &mut [0u8; MAX_FRAME_LEN])
             .unwrap()
@@ -1161,9 +1430,13 @@ mod tests {
         let up_big = encode_uplink(&big_up, &mut [0u8; MAX_FRAME_LEN])
             .unwrap()
             .len();
+        let big = encode_downlink(&m, &mut buf).unwrap().len();
+        let telemetry_small = encode_telemetry(&Telemetry::default(), &mut [0u8; MAX_FRAME_LEN])
+            .unwrap()
+            .len();
         assert_eq!(
-            (up_small, up_big, small, frame.len()),
-            (82, 90, 146, 354),
+            (up_small, up_big, small, big, telemetry_small, telemetry_len),
+            (82, 90, 101, 137, 55, 235),
             "update the module doc"
         );
     }
@@ -1192,6 +1465,15 @@ mod tests {
         }
         let frame = encode_config_read(&mut buf).unwrap();
         assert_eq!(decode_peer_message(frame).unwrap(), PeerMessage::ConfigRead);
+        let frame = encode_telemetry_request(&mut buf).unwrap();
+        assert_eq!(
+            decode_peer_message(frame).unwrap(),
+            PeerMessage::TelemetryRequest
+        );
+        assert_eq!(
+            decode_flight_computer_message(frame),
+            Err(WireError::WrongKind)
+        );
         // The documented size of the default configuration, and the report's margin.
         let body = postcard::to_slice(&ControllerConfig::default(), &mut [0u8; 1024])
             .unwrap()
@@ -1219,10 +1501,13 @@ mod tests {
             .unwrap()
             .to_vec();
         assert_eq!(decode_peer_message(&report), Err(WireError::WrongKind));
+        let telemetry = encode_telemetry(&Telemetry::default(), &mut buf)
+            .unwrap()
+            .to_vec();
+        assert_eq!(decode_peer_message(&telemetry), Err(WireError::WrongKind));
         // A read with a body, and a write whose body is not a configuration: malformed.
         let read_with_body = {
-            let n =
-                encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigRead, &7u8, &mut buf).unwrap();
+            let n = encode_frame(FrameKind::ConfigRead, &7u8, &mut buf).unwrap();
             buf[..n].to_vec()
         };
         assert_eq!(
@@ -1230,8 +1515,7 @@ mod tests {
             Err(WireError::Malformed)
         );
         let short_write = {
-            let n = encode_frame::<_, MAX_PAYLOAD_LEN>(FrameKind::ConfigWrite, &[1u8; 3], &mut buf)
-                .unwrap();
+            let n = encode_frame(FrameKind::ConfigWrite, &[1u8; 3], &mut buf).unwrap();
             buf[..n].to_vec()
         };
         assert_eq!(decode_peer_message(&short_write), Err(WireError::Malformed));
@@ -1440,6 +1724,92 @@ mod tests {
             }
         }
 
+        /// In slices of any sizes, the same frames as byte by byte: garbage, long runs, good
+        /// frames and idle zeros mixed.
+        #[test]
+        fn slices_decode_as_bytes_do(
+            parts in proptest::collection::vec(
+                prop_oneof![
+                    proptest::collection::vec(any::<u8>(), 0..300),
+                    any_uplink().prop_map(|m| {
+                        encode_uplink(&m, &mut [0u8; MAX_FRAME_LEN]).unwrap().to_vec()
+                    }),
+                    Just(std::vec![0x42u8; MAX_FRAME_LEN + 5]),
+                ],
+                0..6,
+            ),
+            cuts in proptest::collection::vec(1usize..80, 1..40),
+        ) {
+            let bytes: Vec<u8> = parts.concat();
+            let by_byte = feed_all(&mut FrameDecoder::new(), &bytes);
+            let mut d = FrameDecoder::new();
+            let mut by_slice = Vec::new();
+            let (mut at, mut k) = (0, 0);
+            while at < bytes.len() {
+                let end = (at + cuts[k % cuts.len()]).min(bytes.len());
+                k += 1;
+                while at < end {
+                    let (n, r) = d.feed_slice(&bytes[at..end]);
+                    prop_assert!(n > 0 && at + n <= end);
+                    at += n;
+                    if let Some(r) = r {
+                        by_slice.push(r.map(|p| (p.kind, p.body.to_vec())));
+                    }
+                }
+            }
+            prop_assert_eq!(by_slice, by_byte);
+        }
+
+        /// Byte by byte, the frames a reference decoder finds: split at the zeros, empty
+        /// frames skipped, a frame over the limits rejected as oversize, COBS undone by the
+        /// `cobs` crate, then the payload's checks.
+        #[test]
+        fn the_decoder_agrees_with_a_reference_cobs_decoder(
+            parts in proptest::collection::vec(
+                prop_oneof![
+                    proptest::collection::vec(any::<u8>(), 0..300),
+                    proptest::collection::vec(prop_oneof![Just(0u8), Just(1), Just(0xFF)], 0..700),
+                    any_uplink().prop_map(|m| {
+                        encode_uplink(&m, &mut [0u8; MAX_FRAME_LEN]).unwrap().to_vec()
+                    }),
+                    // Checked frames with long runs of non-zero bytes (full 254-byte COBS
+                    // blocks), some over the limits, encoded by the reference.
+                    proptest::collection::vec(prop_oneof![200 => 1u8..=255, 1 => Just(0u8)], 0..700)
+                        .prop_map(|body| {
+                            let mut payload = std::vec![PROTOCOL_VERSION, FrameKind::ConfigWrite.byte()];
+                            payload.extend(&body);
+                            let crc = CRC32C.checksum(&payload);
+                            payload.extend(crc.to_le_bytes());
+                            let mut frame = cobs::encode_vec(&payload);
+                            frame.push(0);
+                            frame
+                        }),
+                    Just(std::vec![0x42u8; MAX_FRAME_LEN + 5]),
+                ],
+                0..6,
+            ),
+        ) {
+            let bytes: Vec<u8> = parts.concat();
+            let mut segments: Vec<&[u8]> = bytes.split(|&b| b == 0).collect();
+            segments.pop(); // after the last zero: no frame yet
+            let reference: Vec<_> = segments
+                .into_iter()
+                .filter(|s| !s.is_empty())
+                .map(|s| {
+                    let mut out = std::vec![0u8; s.len()];
+                    match cobs::decode(s, &mut out) {
+                        _ if s.len() > MAX_ENCODED_LEN => Err(WireError::Oversize),
+                        // Oversize first when the bytes decoded before the error outgrow
+                        // the buffer (possible only for encodings over MAX_PAYLOAD_LEN + 1).
+                        _ if decoded_before_error(s) > MAX_PAYLOAD_LEN => Err(WireError::Oversize),
+                        Ok(n) => check_payload(&out[..n]).map(|p| (p.kind, p.body.to_vec())),
+                        Err(_) => Err(WireError::Cobs),
+                    }
+                })
+                .collect();
+            prop_assert_eq!(feed_all(&mut FrameDecoder::new(), &bytes), reference);
+        }
+
         /// Any garbage, then a zero, then a frame: the frame decodes.
         #[test]
         fn decoder_resynchronises_after_garbage(
@@ -1477,6 +1847,21 @@ mod tests {
             frame[i] ^= mask;
             let r = decode_uplink(&frame);
             prop_assert!(r.is_err(), "accepted a corrupted frame: {:?}", r);
+        }
+
+        /// In place or through a copy, the same COBS: every payload of one block (any bytes,
+        /// zeros included, up to 254) encodes as the general encoder does.
+        #[test]
+        fn cobs_in_place_is_cobs(payload in proptest::collection::vec(any::<u8>(), 0..=254)) {
+            let n = payload.len();
+            let mut general = [0u8; 300];
+            let m = cobs_encode(&payload, &mut general).unwrap();
+            let mut frame = std::vec![0xAAu8; n + 3];
+            frame[1..=n].copy_from_slice(&payload);
+            cobs_in_place(&mut frame, n).unwrap();
+            prop_assert_eq!(&frame[..=n], &general[..m]);
+            prop_assert_eq!(frame[n + 1], 0, "the terminating zero");
+            prop_assert_eq!(frame[n + 2], 0xAA, "nothing written past it");
         }
     }
 }

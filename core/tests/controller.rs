@@ -21,8 +21,9 @@ use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{FlightCondition, NavError, NavSample};
 use ibvs_core::schedule::{ScheduleError, design_at};
 use ibvs_core::wire::{
-    Downlink, LinkCounters, MAX_FRAME_LEN, Uplink, decode_downlink, decode_uplink, encode_downlink,
-    encode_uplink,
+    Downlink, FlightComputerMessage, LinkCounters, MAX_FRAME_LEN, Telemetry, Uplink,
+    decode_downlink, decode_flight_computer_message, decode_uplink, encode_downlink,
+    encode_telemetry, encode_uplink,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
@@ -1143,17 +1144,27 @@ fn downlink_of_a_real_step_fits_a_frame_and_round_trips() {
         seq: u32::MAX,
         echo_seq: Some(u32::MAX),
         output,
-        counters: *rig.ctl.counters(),
-        link: LinkCounters {
-            corrupt: 3,
-            ..LinkCounters::default()
-        },
         ..Downlink::default()
     };
     let mut buf = [0u8; MAX_FRAME_LEN];
     let frame = encode_downlink(&sent, &mut buf).expect("fits MAX_FRAME_LEN");
     assert!(frame.len() <= MAX_FRAME_LEN);
     assert_eq!(decode_downlink(frame).expect("decodes"), sent);
+    // The counters travel in a telemetry frame.
+    let telemetry = Telemetry {
+        seq: 7,
+        counters: *rig.ctl.counters(),
+        link: LinkCounters {
+            corrupt: 3,
+            ..LinkCounters::default()
+        },
+        ..Telemetry::default()
+    };
+    let frame = encode_telemetry(&telemetry, &mut buf).expect("fits MAX_FRAME_LEN");
+    assert_eq!(
+        decode_flight_computer_message(frame).expect("decodes"),
+        FlightComputerMessage::Telemetry(telemetry)
+    );
 }
 
 // ---------------------------------------------------------------------------------------------

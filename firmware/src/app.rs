@@ -73,14 +73,16 @@
 //! inside the actuator limits) or the trim.
 
 use embedded_io::{Read, ReadReady};
+use ibvs_core::Counters;
 use ibvs_core::actuator::ActuatorCommand;
 use ibvs_core::config::trim_command;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
     ClockSource, ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit, Downlink, FrameDecoder,
-    FrameKind, LinkCounters, LinkStatus, MAX_FRAME_LEN, PeerMessage, ResetCause, Uplink, WireError,
-    config_id, encode_config_report, encode_downlink,
+    FrameKind, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause, TELEMETRY_MAX_PERIODS,
+    TELEMETRY_MIN_PERIODS, Telemetry, Uplink, WireError, config_from_bytes, config_id,
+    encode_config_report, encode_downlink, encode_telemetry,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
@@ -142,8 +144,9 @@ pub trait CostCounter {
     /// Runs `f` with interrupts masked on the boards (the default just runs it), so that a
     /// short timed window counts only its own work: an interrupt landing inside it (a
     /// received byte, under QEMU at a host-timing-dependent instruction) would otherwise be
-    /// counted too, and the figure would differ run to run. Only for windows far shorter
-    /// than a byte time at the link's speed (10.8 us at 921,600 baud), or bytes are lost.
+    /// counted too, and the figure would differ run to run. On an MCU only for windows far
+    /// shorter than a byte time at the link's speed (10.8 us at 921,600 baud), or bytes are
+    /// lost; QEMU's serial model holds a byte back while the one before waits unread.
     #[inline(always)]
     fn uninterrupted<R>(f: impl FnOnce() -> R) -> R {
         f()
@@ -245,6 +248,40 @@ pub trait Board {
     fn log(&mut self, event: Event);
 }
 
+/// Bytes [`App::poll`] takes from the receive queue at a time and hands to
+/// [`App::on_bytes`]: the boards' whole receive queue (`board::usart1::RX_QUEUE_LEN`), which
+/// they let the loop read once a frame's end is in it (or it is half full), so a frame is
+/// decoded whole in one call. The most the decoder walks in one call: the control task's
+/// static bound counts its loop by it.
+pub const RX_CHUNK_LEN: usize = 512;
+
+/// Feeds `bytes` to the decoder up to the end of the first frame among them: how many it
+/// took, and what that frame asks for (a configuration write's body deserialised into
+/// `config_in`) or why it was rejected. The application's decode ([`App::on_bytes`]; the path
+/// benchmark times the same function).
+#[inline(always)]
+pub(crate) fn receive(
+    decoder: &mut FrameDecoder,
+    config_in: &mut ControllerConfig,
+    bytes: &[u8],
+) -> (usize, Option<Result<Received, WireError>>) {
+    let (taken, r) = decoder.feed_slice(bytes);
+    let r = r.map(|r| {
+        r.and_then(|p| match p.kind {
+            FrameKind::Measurement => p.uplink().map(Received::Measurement),
+            FrameKind::ConfigWrite => Ok(Received::ConfigWrite(
+                config_from_bytes(p.body).map(|c| *config_in = c),
+            )),
+            FrameKind::ConfigRead => p.empty().map(|()| Received::ConfigRead),
+            FrameKind::TelemetryRequest => p.empty().map(|()| Received::TelemetryRequest),
+            FrameKind::Command | FrameKind::ConfigReport | FrameKind::Telemetry => {
+                Err(WireError::WrongKind)
+            }
+        })
+    });
+    (taken, r)
+}
+
 /// One controller step, with its cost in `C`'s unit (the call and the step) and the stack it
 /// used, bytes, where the board measures it. Out of line, once in the binary.
 #[inline(never)]
@@ -330,7 +367,7 @@ pub struct App {
     trigger_at: Option<u32>,
     /// Largest stack a control step used (boards that measure it), bytes.
     control_stack_max: u32,
-    /// Events to log after the one [`App::on_byte`] or [`App::on_periods`] returned (a new
+    /// Events to log after the one [`App::on_bytes`] or [`App::on_periods`] returned (a new
     /// control-stack maximum; a held-back `Engage` or its acknowledgement): at most two come
     /// from one step.
     pending: [Option<Event>; 2],
@@ -338,7 +375,26 @@ pub struct App {
     config_id: u32,
     /// An applied configuration the board is still to store (then the report is sent).
     to_persist: Option<ControllerConfig>,
+    /// A configuration write's body, deserialised straight here (a message enum carrying it
+    /// would be copied whole for every measurement frame).
+    config_in: ControllerConfig,
+    /// The counters the latest telemetry frame carried (free-running: a change is sent).
+    telemetry_sent: (Counters, LinkCounters),
+    /// Free-running: control periods since the latest telemetry frame.
+    periods_since_telemetry: u32,
     buf: [u8; MAX_FRAME_LEN],
+}
+
+/// What a received frame asks for (a configuration write's body is in `App::config_in`).
+pub(crate) enum Received {
+    /// A measurement frame.
+    Measurement(Uplink),
+    /// A configuration write: whether its body deserialised.
+    ConfigWrite(Result<(), WireError>),
+    /// A configuration read.
+    ConfigRead,
+    /// A telemetry request.
+    TelemetryRequest,
 }
 
 impl App {
@@ -378,6 +434,9 @@ impl App {
             controller,
             config_id: config_id(&cfg),
             to_persist: None,
+            config_in: cfg,
+            telemetry_sent: Default::default(),
+            periods_since_telemetry: 0,
             boot_status,
             reset_cause: boot.reset_cause,
             clock: boot.clock,
@@ -438,17 +497,51 @@ impl App {
             echo_seq,
             link_status: LinkStatus(self.base_status | status),
             output,
-            counters: *self.controller.counters(),
-            link: self.link,
             cost: Cost {
                 unit: C::UNIT,
                 encode_prev: self.encode_prev,
                 ..cost
             },
             config_id: self.config_id,
+        }
+    }
+
+    /// The telemetry frame now: the counters, the configuration's id, the boot's findings;
+    /// its length in the frame buffer (`None`: it did not encode, counted). Remembered as
+    /// the latest sent.
+    pub fn telemetry_frame(&mut self) -> Option<usize> {
+        let counters = *self.controller.counters();
+        let t = Telemetry {
+            seq: self.tx_seq,
+            counters,
+            link: self.link,
+            config_id: self.config_id,
             reset_cause: self.reset_cause,
             clock: self.clock,
+        };
+        self.telemetry_sent = (counters, self.link);
+        self.periods_since_telemetry = 0;
+        match encode_telemetry(&t, &mut self.buf) {
+            Ok(frame) => {
+                let n = frame.len();
+                self.tx_seq = self.tx_seq.wrapping_add(1);
+                Some(n)
+            }
+            Err(e) => {
+                self.link.count(e);
+                None
+            }
         }
+    }
+
+    /// Free-running, after a period's command frame: a telemetry frame is due when a counter
+    /// changed since the latest one and [`TELEMETRY_MIN_PERIODS`] have passed, or after
+    /// [`TELEMETRY_MAX_PERIODS`] whatever changed.
+    fn telemetry_due(&self) -> bool {
+        let p = self.periods_since_telemetry;
+        p >= TELEMETRY_MAX_PERIODS
+            || (p >= TELEMETRY_MIN_PERIODS
+                && self.telemetry_sent != (*self.controller.counters(), self.link))
     }
 
     /// Encodes `d` into the frame buffer and remembers it; `None` (counted) if it failed.
@@ -552,53 +645,59 @@ impl App {
         }
     }
 
-    /// Feeds one received byte. Returns the length of a command frame to send (in
-    /// [`App::frame_bytes`]) when the byte completed a frame that is answered (lockstep).
+    /// Feeds received bytes up to the end of the first frame among them: how many it took,
+    /// and the length of a frame to send (in [`App::frame_bytes`]) when that frame is answered
+    /// at once (lockstep's command frame, a configuration report, a telemetry frame).
     // Out of line: the static bound of the control task (target-bench) starts here.
     #[inline(never)]
-    pub fn on_byte<C: CostCounter>(&mut self, byte: u8) -> (Option<usize>, Option<Event>) {
-        // One byte's decode (tens of instructions; a frame's last byte, its whole
-        // deserialisation), timed without interrupts so the figure is repeatable.
-        let decoder = &mut self.decoder;
-        let (result, t0, spent) = C::uninterrupted(|| {
+    pub fn on_bytes<C: CostCounter>(
+        &mut self,
+        bytes: &[u8],
+    ) -> (usize, Option<usize>, Option<Event>) {
+        // The decode of these bytes (a frame's last ones: its whole deserialisation), timed
+        // without interrupts where the board's counter needs that for a repeatable figure
+        // (the qemu board, whose serial model holds bytes back meanwhile; the f405 board
+        // decodes with interrupts on).
+        let (decoder, config_in) = (&mut self.decoder, &mut self.config_in);
+        let (taken, result, t0, spent) = C::uninterrupted(|| {
             let t0 = C::now();
-            let r = decoder
-                .feed(byte)
-                .map(|r| r.map(|p| (p.kind, p.peer_message())));
-            (r, t0, C::now().wrapping_sub(t0))
+            let (taken, r) = receive(decoder, config_in, bytes);
+            (taken, r, t0, C::now().wrapping_sub(t0))
         });
         self.decode_acc = self.decode_acc.saturating_add(spent);
         let Some(result) = result else {
-            return (None, None);
+            return (taken, None, None);
         };
         let decode = core::mem::take(&mut self.decode_acc);
-        match result {
-            Ok((_, Ok(PeerMessage::Measurement(up)))) => self.accept::<C>(up, decode, t0),
-            Ok((_, Ok(PeerMessage::ConfigWrite(cfg)))) => self.configure(Ok(cfg)),
-            Ok((_, Ok(PeerMessage::ConfigRead))) => {
+        let (len, event) = match result {
+            Ok(Received::Measurement(up)) => self.accept::<C>(up, decode, t0),
+            Ok(Received::ConfigWrite(body)) => self.configure(body),
+            Ok(Received::ConfigRead) => {
                 self.report(ConfigStatus::Active, ConfigStorage::NotWritten)
             }
-            Ok((FrameKind::ConfigWrite, Err(e))) => self.configure(Err(e)),
-            Ok((_, Err(e))) | Err(e) => {
+            Ok(Received::TelemetryRequest) => (self.telemetry_frame(), None),
+            Err(e) => {
                 self.link.count(e);
                 (None, None)
             }
-        }
+        };
+        (taken, len, event)
     }
 
     /// A configuration write (or one whose body did not deserialise): applied through
     /// [`Controller::reconfigure`] (standby only, validated, atomic: the next step flies it),
     /// counted, and answered with a report either way.
-    fn configure(
-        &mut self,
-        cfg: Result<ControllerConfig, WireError>,
-    ) -> (Option<usize>, Option<Event>) {
-        let status = match cfg {
+    // Out of line: another frame's path than the control task's, which its static bound
+    // (target-bench) leaves out by this name.
+    #[inline(never)]
+    fn configure(&mut self, body: Result<(), WireError>) -> (Option<usize>, Option<Event>) {
+        let cfg = self.config_in;
+        let status = match body {
             Err(e) => {
                 self.link.count(e);
                 ConfigStatus::Malformed
             }
-            Ok(cfg) => match self.controller.reconfigure(cfg) {
+            Ok(()) => match self.controller.reconfigure(cfg) {
                 Ok(()) => {
                     self.config_id = config_id(&cfg);
                     self.link.config_applied = self.link.config_applied.saturating_add(1);
@@ -673,7 +772,6 @@ impl App {
             (Schedule::Lockstep, false) if self.last.echo_seq == Some(up.seq) => {
                 let mut d = self.last;
                 d.seq = self.tx_seq;
-                d.link = self.link;
                 d.link_status.0 |= LinkStatus::RETRANSMIT;
                 (self.encode::<C>(d).map(<[u8]>::len), None)
             }
@@ -708,6 +806,7 @@ impl App {
             return (None, None);
         }
         self.link.deadline_missed = self.link.deadline_missed.saturating_add(periods - 1);
+        self.periods_since_telemetry = self.periods_since_telemetry.saturating_add(periods);
         let Some(latest) = self.latest else {
             // No measurement frame yet: standby trim, no step.
             let d = self.frame::<C>(None, LinkStatus::STALE, trim_output(), Cost::default());
@@ -752,7 +851,7 @@ impl App {
         (len, event)
     }
 
-    /// An event left to log after the one [`App::on_byte`] or [`App::on_periods`] returned.
+    /// An event left to log after the one [`App::on_bytes`] or [`App::on_periods`] returned.
     pub fn take_pending_event(&mut self) -> Option<Event> {
         match &mut self.pending {
             [first @ Some(_), second] => {
@@ -764,7 +863,7 @@ impl App {
         }
     }
 
-    /// The frame buffer: the first `len` bytes are the frame [`App::on_byte`] or
+    /// The frame buffer: the first `len` bytes are the frame [`App::on_bytes`] or
     /// [`App::on_periods`] returned.
     pub fn frame_bytes(&self, len: usize) -> &[u8] {
         &self.buf[..len.min(MAX_FRAME_LEN)]
@@ -791,9 +890,12 @@ impl App {
         })
     }
 
-    /// Sends the boot frame.
+    /// Sends the boot frame, then a telemetry frame (the boot's findings, the counters).
     pub fn boot<B: Board>(&mut self, board: &mut B) {
         if let Some(len) = self.boot_frame::<B::Counter>().map(<[u8]>::len) {
+            self.send(board, len);
+        }
+        if let Some(len) = self.telemetry_frame() {
             self.send(board, len);
         }
     }
@@ -816,7 +918,7 @@ impl App {
         let mut sent = 0;
         let errors = board.take_rx_errors();
         self.link.rx_errors = self.link.rx_errors.saturating_add(errors);
-        let mut chunk = [0u8; 64];
+        let mut chunk = [0u8; RX_CHUNK_LEN];
         loop {
             let link = board.link();
             match link.read_ready() {
@@ -835,8 +937,10 @@ impl App {
                     break;
                 }
             };
-            for &b in &chunk[..n.min(chunk.len())] {
-                let (len, event) = self.on_byte::<B::Counter>(b);
+            let mut rest = &chunk[..n.min(chunk.len())];
+            while !rest.is_empty() {
+                let (taken, len, event) = self.on_bytes::<B::Counter>(rest);
+                rest = rest.get(taken.max(1)..).unwrap_or(&[]);
                 // An applied configuration: stored first (in standby; the store's time is
                 // the board's), then answered with the outcome.
                 let len = match self.take_to_persist() {
@@ -870,6 +974,14 @@ impl App {
                 }
                 None => None,
             };
+            // Telemetry after the command frame, outside the deadline's window.
+            if len.is_some()
+                && self.telemetry_due()
+                && let Some(len) = self.telemetry_frame()
+            {
+                sent += 1;
+                self.send(board, len);
+            }
             self.log_events(board, event);
             self.log_events(board, late);
         }
@@ -896,8 +1008,8 @@ mod tests {
     use ibvs_core::config::ConfigProblem;
     use ibvs_core::measurement::CameraMeasurement;
     use ibvs_core::wire::{
-        FlightComputerMessage, FrameDecoder, MAX_FRAME_LEN, encode_config_read,
-        encode_config_write, encode_message, encode_uplink,
+        FlightComputerMessage, MAX_FRAME_LEN, encode_config_read, encode_config_write,
+        encode_message, encode_telemetry_request, encode_uplink,
     };
 
     use super::*;
@@ -1083,17 +1195,32 @@ mod tests {
             let f = encode_uplink(&Uplink { seq, input }, &mut buf).expect("fits");
             self.rx.extend(f.iter().copied());
         }
-        /// Every command frame sent so far (and clears the output).
+        /// Every command frame sent so far (telemetry frames skipped; clears the output).
         fn frames(&mut self) -> Vec<Downlink> {
-            let mut d = FrameDecoder::new();
-            let out = self
-                .tx
-                .iter()
-                .filter_map(|&b| d.feed(b).map(|r| r.and_then(|p| p.downlink())))
-                .map(|r| r.expect("valid command frame"))
-                .collect();
-            self.tx.clear();
-            out
+            self.messages()
+                .into_iter()
+                .filter_map(|m| match m {
+                    FlightComputerMessage::Command(d) => Some(d),
+                    FlightComputerMessage::Telemetry(_) => None,
+                    other => panic!("not a command frame: {other:?}"),
+                })
+                .collect()
+        }
+
+        /// Asks for a telemetry frame and returns it (the output must hold nothing else).
+        fn telemetry(&mut self, app: &mut App) -> Telemetry {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            self.rx.extend(
+                encode_telemetry_request(&mut buf)
+                    .expect("fits")
+                    .iter()
+                    .copied(),
+            );
+            assert_eq!(app.poll(self), 1, "one answer");
+            match self.messages().as_slice() {
+                [FlightComputerMessage::Telemetry(t)] => *t,
+                other => panic!("not one telemetry frame: {other:?}"),
+            }
         }
 
         /// Every frame sent so far, of either kind (and clears the output).
@@ -1178,9 +1305,14 @@ mod tests {
             let f = board.frames();
             assert_eq!(f.len(), 1);
             assert_eq!(f[0].output, twin.step(&i));
-            assert_eq!((f[0].seq, f[0].echo_seq), (k, Some(k)));
-            assert_eq!(f[0].counters, *twin.counters());
-            assert_eq!(f[0].link.frames_ok, k);
+            // The boot frame is 0 and its telemetry 1; every 10th step a telemetry frame.
+            assert_eq!((f[0].seq, f[0].echo_seq), (k + 1 + (k - 1) / 10, Some(k)));
+            if k % 10 == 0 {
+                let t = board.telemetry(&mut app);
+                assert_eq!(t.counters, *twin.counters());
+                assert_eq!(t.link.frames_ok, k);
+                assert_eq!(t.seq, f[0].seq + 1, "one frame counter for every frame");
+            }
         }
         assert_eq!(
             board.events,
@@ -1219,13 +1351,14 @@ mod tests {
         // The next good frame skips sequence 2 (its frame was lost): a gap of one.
         board.send(3, input(3, ModeRequest::None));
         assert_eq!(app.poll(&mut board), 2);
-        let f = board.frames();
-        let l = f[1].link;
+        assert_eq!(board.frames().len(), 2);
+        let t = board.telemetry(&mut app);
+        let l = t.link;
         assert_eq!(
             (l.corrupt, l.oversize, l.seq_gap, l.rx_errors),
             (3, 1, 1, 2)
         );
-        assert_eq!((l.frames_ok, f[1].counters.frames_dropped), (2, 1));
+        assert_eq!((l.frames_ok, t.counters.frames_dropped), (2, 1));
     }
 
     #[test]
@@ -1268,8 +1401,9 @@ mod tests {
             twin.follow_schedule();
             assert_eq!(f[0].output, want);
             assert_eq!(f[0].config_id, config_id(&cfg));
-            assert_eq!(f[0].link.config_applied, 1);
         }
+        let t = board.telemetry(&mut app);
+        assert_eq!((t.link.config_applied, t.config_id), (1, config_id(&cfg)));
     }
 
     #[test]
@@ -1300,9 +1434,7 @@ mod tests {
         let r = board.configure(&mut app, &bad);
         assert_eq!(r.storage, ConfigStorage::NotWritten);
         assert_eq!(board.stored, [cfg, next]);
-        board.send(1, input(1, ModeRequest::None));
-        app.poll(&mut board);
-        let l = board.frames()[0].link;
+        let l = board.telemetry(&mut app).link;
         assert_eq!(
             (l.config_applied, l.config_refused, l.config_store_failed),
             (2, 1, 1)
@@ -1372,9 +1504,7 @@ mod tests {
         let r = board.configure(&mut app, &ControllerConfig::paper());
         assert_eq!(r.status, ConfigStatus::NotStandby(engaged));
         assert_eq!(r.config, default);
-        board.send(2, input(2, ModeRequest::None));
-        app.poll(&mut board);
-        let l = board.frames()[0].link;
+        let l = board.telemetry(&mut app).link;
         assert_eq!((l.config_applied, l.config_refused, l.malformed), (0, 3, 1));
         assert!(
             board
@@ -1385,7 +1515,7 @@ mod tests {
     }
 
     #[test]
-    fn every_frame_says_why_the_board_reset_and_which_clock_it_runs_on() {
+    fn telemetry_says_why_the_board_reset_and_which_clock_it_runs_on() {
         let boot = BootReport {
             reset_cause: ResetCause::BrownOut,
             clock: ClockSource::InternalFallback,
@@ -1394,22 +1524,30 @@ mod tests {
         let mut app = App::new(Schedule::Lockstep, boot, None).expect("config");
         let mut board: Mock = Mock::default();
         app.boot(&mut board);
+        // The boot frame, then the boot's telemetry; again on request.
+        let found = (ResetCause::BrownOut, ClockSource::InternalFallback);
+        match board.messages().as_slice() {
+            [
+                FlightComputerMessage::Command(d),
+                FlightComputerMessage::Telemetry(t),
+            ] => {
+                assert!(d.link_status.contains(LinkStatus::BOOT));
+                assert!(!d.link_status.contains(LinkStatus::PREVIOUS_PANIC));
+                assert_eq!((t.reset_cause, t.clock), found);
+            }
+            other => panic!("{other:?}"),
+        }
         board.send(1, input(1, ModeRequest::None));
         app.poll(&mut board);
-        let f = board.frames();
-        assert_eq!(f.len(), 2);
-        for d in &f {
-            assert_eq!(
-                (d.reset_cause, d.clock),
-                (ResetCause::BrownOut, ClockSource::InternalFallback)
-            );
-            assert!(!d.link_status.contains(LinkStatus::PREVIOUS_PANIC));
-        }
+        assert_eq!(board.frames().len(), 1);
+        let t = board.telemetry(&mut app);
+        assert_eq!((t.reset_cause, t.clock), found);
         // The qemu board's report: a power-on, no clock to report.
-        let (_, mut board) = lockstep();
-        let f = board.frames();
+        let (mut app, mut board) = lockstep();
+        board.frames();
+        let t = board.telemetry(&mut app);
         assert_eq!(
-            (f[0].reset_cause, f[0].clock),
+            (t.reset_cause, t.clock),
             (ResetCause::PowerOn, ClockSource::NotReported)
         );
     }
@@ -1449,10 +1587,16 @@ mod tests {
             let mut app = App::new(schedule, boot, None).expect("config");
             let mut board: Mock = Mock::default();
             app.boot(&mut board);
-            let b = board.frames()[0];
+            let (b, t) = match board.messages().as_slice() {
+                [
+                    FlightComputerMessage::Command(b),
+                    FlightComputerMessage::Telemetry(t),
+                ] => (*b, *t),
+                other => panic!("{other:?}"),
+            };
             assert!(b.link_status.contains(LinkStatus::BOOT));
             assert_eq!(
-                (b.output.mode, b.reset_cause),
+                (b.output.mode, t.reset_cause),
                 (Mode::Standby, boot.reset_cause)
             );
             assert_eq!(b.output.command.as_array(), trim);
@@ -1466,8 +1610,9 @@ mod tests {
                 let d = exchange(&mut app, &mut board, seq, ModeRequest::Engage);
                 assert_eq!(d.output.mode, Mode::Standby, "{schedule:?} frame {seq}");
                 assert_eq!(d.output.command.as_array(), trim);
-                assert_eq!(d.link.engage_inhibited, seq);
-                assert_eq!(d.counters.engage_refused, 0, "never reached the controller");
+                let t = board.telemetry(&mut app);
+                assert_eq!(t.link.engage_inhibited, seq);
+                assert_eq!(t.counters.engage_refused, 0, "never reached the controller");
             }
             assert_eq!(
                 board.events,
@@ -1481,14 +1626,15 @@ mod tests {
             assert_eq!(board.events.last(), Some(&Event::ResetAcknowledged));
             let d = exchange(&mut app, &mut board, 7, ModeRequest::Engage);
             assert_eq!(d.output.mode, Mode::PreContact, "{schedule:?}");
-            assert_eq!(d.link.engage_inhibited, 5);
+            assert_eq!(board.telemetry(&mut app).link.engage_inhibited, 5);
         }
         // After a power-on the first engage engages (no acknowledgement asked).
         let (mut app, mut board) = lockstep();
         board.frames();
         let d = exchange(&mut app, &mut board, 1, ModeRequest::Engage);
+        let t = board.telemetry(&mut app);
         assert_eq!(
-            (d.output.mode, d.link.engage_inhibited),
+            (d.output.mode, t.link.engage_inhibited),
             (Mode::PreContact, 0)
         );
     }
@@ -1502,32 +1648,34 @@ mod tests {
         let mut app = App::new(Schedule::Lockstep, BootReport::power_on(), None).expect("config");
         let mut board: Mock<Clock> = Mock::default();
         app.boot(&mut board);
+        board.frames();
+        let mut overruns = Vec::new();
+        let mut sent = Vec::new();
         board.send(1, input(1, ModeRequest::Engage));
         app.poll(&mut board);
+        sent.extend(board.frames());
+        overruns.push(board.telemetry(&mut app).link.deadline_overruns);
         Clock::set(0, 10_000);
         board.send(2, input(2, ModeRequest::None));
         app.poll(&mut board);
-        // A configuration report is not a step: not measured, however slow.
+        sent.extend(board.frames());
+        // A configuration report or a telemetry frame is not a step: not measured, however
+        // slow.
         let mut buf = [0u8; MAX_FRAME_LEN];
         board
             .rx
             .extend(encode_config_read(&mut buf).expect("fits").iter().copied());
         app.poll(&mut board);
+        board.messages();
+        overruns.push(board.telemetry(&mut app).link.deadline_overruns);
         Clock::set(0, 0);
         board.send(3, input(3, ModeRequest::None));
         app.poll(&mut board);
-        let f: Vec<Downlink> = board
-            .messages()
-            .into_iter()
-            .filter_map(|m| match m {
-                FlightComputerMessage::Command(d) => Some(d),
-                FlightComputerMessage::ConfigReport(_) => None,
-            })
-            .collect();
-        let overruns: Vec<u32> = f.iter().map(|d| d.link.deadline_overruns).collect();
-        // boot, frame 1 on time, frame 2 late (sent, counted in the next frame), frame 3.
-        assert_eq!(overruns, [0, 0, 0, 1]);
-        assert_eq!(f[2].echo_seq, Some(2), "the late frame was sent");
+        sent.extend(board.frames());
+        overruns.push(board.telemetry(&mut app).link.deadline_overruns);
+        // Frame 1 on time, frame 2 late (sent, counted), frame 3 on time.
+        assert_eq!(overruns, [0, 1, 1]);
+        assert_eq!(sent[1].echo_seq, Some(2), "the late frame was sent");
         let late: Vec<&Event> = board
             .events
             .iter()
@@ -1552,12 +1700,14 @@ mod tests {
             App::new(Schedule::FreeRunning, BootReport::power_on(), None).expect("config");
         let mut board: Mock<Clock> = Mock::default();
         app.boot(&mut board);
+        board.frames();
         let mut period = |board: &mut Mock<Clock>, now: u32, tick_at: u32| {
             Clock::set(now, 0);
             board.tick_at = tick_at;
             board.periods = 1;
             app.poll(board);
-            board.frames()[0].link.deadline_overruns
+            assert_eq!(board.frames().len(), 1);
+            board.telemetry(&mut app).link.deadline_overruns
         };
         assert_eq!(
             period(&mut board, 50_000, 41_000),
@@ -1566,8 +1716,8 @@ mod tests {
         );
         assert_eq!(
             period(&mut board, 50_000, 39_999),
-            0,
-            "10,001: late, counted next"
+            1,
+            "10,001: late, counted"
         );
         assert_eq!(
             period(&mut board, 5, u32::MAX - 10),
@@ -1596,8 +1746,9 @@ mod tests {
         app.poll(&mut board);
         let f = board.frames();
         assert_eq!(f.len(), 1);
-        assert_eq!((f[0].echo_seq, f[0].link.tx_dropped), (Some(2), 1));
-        assert_eq!(f[0].link.tx_errors, 0);
+        let t = board.telemetry(&mut app);
+        assert_eq!((f[0].echo_seq, t.link.tx_dropped), (Some(2), 1));
+        assert_eq!(t.link.tx_errors, 0);
     }
 
     #[test]
@@ -1622,7 +1773,8 @@ mod tests {
         assert_eq!(f.len(), 3); // boot, answer, retransmission
         assert!(f[2].link_status.contains(LinkStatus::RETRANSMIT));
         assert_eq!(f[2].output, f[1].output);
-        assert_eq!((f[2].counters.steps, f[2].link.seq_repeat), (1, 1));
+        let t = board.telemetry(&mut app);
+        assert_eq!((t.counters.steps, t.link.seq_repeat), (1, 1));
         assert_eq!(app.link_counters().seq_old, 1);
     }
 
@@ -1657,8 +1809,25 @@ mod tests {
         }
         board.periods = 3; // two deadlines missed
         app.poll(&mut board);
-        let f = board.frames();
+        // Telemetry came with the boot frame, then after a command frame whenever a
+        // counter had changed, never within 10 periods of the one before.
+        let messages = board.messages();
+        let mut f = Vec::new();
+        let mut telemetry_at = Vec::new();
+        for m in messages {
+            match m {
+                FlightComputerMessage::Command(d) => f.push(d),
+                FlightComputerMessage::Telemetry(_) => telemetry_at.push(f.len()),
+                other => panic!("{other:?}"),
+            }
+        }
         assert_eq!(f.len(), 1 + 1 + 10 + 40 + 1);
+        assert_eq!(telemetry_at[0], 1, "right after the boot frame");
+        let gaps: Vec<usize> = telemetry_at.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(
+            !gaps.is_empty() && gaps.iter().all(|&g| g == TELEMETRY_MIN_PERIODS as usize),
+            "counters change every period: one every {TELEMETRY_MIN_PERIODS}: {telemetry_at:?}"
+        );
         assert_eq!(f[1].output.command.as_array(), trim_command());
         assert_eq!(f[1].output.step, 0);
         assert_eq!(f[2].output.mode, Mode::PreContact);
@@ -1677,7 +1846,7 @@ mod tests {
             last.link_status
                 .contains(LinkStatus::STALE | LinkStatus::FREE_RUNNING)
         );
-        let l = last.link;
+        let l = board.telemetry(&mut app).link;
         assert_eq!((l.timeouts, l.held_steps, l.deadline_missed), (1, 41, 2));
         assert_eq!(l.stale_steps, 41 - LINK_TIMEOUT_PERIODS);
         assert!(board.events.contains(&Event::LinkStale));
@@ -1710,7 +1879,8 @@ mod tests {
             (f[0].output.mode, f[0].echo_seq),
             (Mode::PreContact, Some(2))
         );
-        assert_eq!((f[1].echo_seq, f[1].counters.frames_dropped), (Some(4), 1));
+        assert_eq!(f[1].echo_seq, Some(4));
+        assert_eq!(board.telemetry(&mut app).counters.frames_dropped, 1);
     }
 
     #[test]

@@ -27,14 +27,15 @@ use ibvs_core::estimator::TipGeometry;
 use ibvs_core::gains::TRIM;
 use ibvs_core::nav::{FlightCondition, NavSample};
 use ibvs_core::wire::{
-    CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, PeerMessage, Uplink, WireError,
-    config_id, encode_config_write, encode_downlink, encode_uplink,
+    CRC32C, Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Telemetry, Uplink, WireError,
+    config_id, encode_config_write, encode_downlink, encode_telemetry, encode_uplink,
 };
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
 };
 
 use crate::app::CostCounter;
+use crate::app::{RX_CHUNK_LEN, Received, receive};
 use crate::one_step::engage_input;
 
 /// The paths of the step the script visits, in order.
@@ -76,6 +77,10 @@ pub struct Costs {
     pub crc_measurement: u32,
     /// Encoding the command frame: postcard, CRC, COBS.
     pub encode_command: u32,
+    /// Telemetry frame on the wire (the script's counters), bytes.
+    pub telemetry_frame_len: usize,
+    /// Encoding it (after the command frame, outside the control task's deadline).
+    pub encode_telemetry: u32,
     /// The gain schedule's follow-up after a step at a new flight condition inside the
     /// envelope (off the grid): the interpolation of the whole design and its loading
     /// (`Controller::follow_schedule`, outside the step).
@@ -122,6 +127,7 @@ impl core::fmt::Display for Json<'_> {
             ", \"steps\": {}, \"script_ok\": {}, \"measurement_frame_bytes\": {}, \
              \"decode_measurement\": {}, \"decode_measurement_zero_nav\": {}, \
              \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}, \
+             \"telemetry_frame_bytes\": {}, \"encode_telemetry\": {}, \
              \"follow_schedule\": {}, \"config_frame_bytes\": {}, \"decode_config\": {}, \
              \"apply_config\": {}}}",
             c.steps,
@@ -132,6 +138,8 @@ impl core::fmt::Display for Json<'_> {
             c.crc_measurement,
             c.command_frame_len,
             c.encode_command,
+            c.telemetry_frame_len,
+            c.encode_telemetry,
             c.follow_schedule,
             c.config_frame_len,
             c.decode_config,
@@ -149,17 +157,25 @@ fn perturbed_nav() -> NavSample {
 
 /// Decodes `frame` through a fresh decoder as the application does (the message the
 /// flight computer takes); the cost and the message.
-fn decode_timed<C: CostCounter>(frame: &[u8]) -> (u32, Option<Result<PeerMessage, WireError>>) {
+fn decode_timed<C: CostCounter>(
+    frame: &[u8],
+) -> (u32, Option<Result<Received, WireError>>, ControllerConfig) {
     let mut decoder = FrameDecoder::new();
+    let mut config_in = ControllerConfig::default();
     let mut decoded = None;
+    let mut rest = black_box(frame);
     let t0 = C::now();
-    for &b in black_box(frame) {
-        if let Some(r) = decoder.feed(b) {
-            decoded = Some(r.and_then(|p| p.peer_message()));
+    // In the receive queue's chunks (`RX_CHUNK_LEN` bytes), through the application's own decode.
+    while !rest.is_empty() {
+        let chunk = rest.get(..RX_CHUNK_LEN).unwrap_or(rest);
+        let (taken, r) = receive(&mut decoder, &mut config_in, chunk);
+        if r.is_some() {
+            decoded = r;
         }
+        rest = rest.get(taken.max(1)..).unwrap_or(&[]);
     }
     let cost = C::now().wrapping_sub(t0);
-    (cost, black_box(decoded))
+    (cost, black_box(decoded), config_in)
 }
 
 /// The cost of decoding `frame` ([`decode_timed`]).
@@ -327,8 +343,8 @@ fn config_path<C: CostCounter>() -> Option<(usize, u32, u32)> {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let frame = encode_config_write(&cfg, &mut buf).ok()?;
     let len = frame.len();
-    let (decode, decoded) = decode_timed::<C>(frame);
-    let Some(Ok(PeerMessage::ConfigWrite(got))) = decoded else {
+    let (decode, decoded, got) = decode_timed::<C>(frame);
+    let Some(Ok(Received::ConfigWrite(Ok(())))) = decoded else {
         return None;
     };
     let t0 = C::now();
@@ -372,18 +388,26 @@ pub fn measure<C: CostCounter>() -> Costs {
         seq: up.seq,
         echo_seq: Some(up.seq),
         output,
+        ..Downlink::default()
+    };
+    let telemetry = Telemetry {
+        seq: up.seq,
         counters: *controller.counters(),
         link: LinkCounters {
             frames_ok: up.seq,
             ..LinkCounters::default()
         },
-        ..Downlink::default()
+        ..Telemetry::default()
     };
 
     let mut up_buf = [0u8; MAX_FRAME_LEN];
     let up_len = encode_uplink(&up, &mut up_buf).map_or(0, <[u8]>::len);
     costs.measurement_frame_len = up_len;
-    costs.decode_measurement = decode_cost::<C>(&up_buf[..up_len]);
+    let (decode, decoded, _) = decode_timed::<C>(&up_buf[..up_len]);
+    costs.decode_measurement = decode;
+    if !matches!(decoded, Some(Ok(Received::Measurement(got))) if got == up) {
+        costs.script_ok = false;
+    }
 
     let mut zero_nav = up;
     zero_nav.input.nav = NavSample::default();
@@ -402,6 +426,11 @@ pub fn measure<C: CostCounter>() -> Costs {
     let down_len = encode_downlink(black_box(&down), &mut down_buf).map_or(0, <[u8]>::len);
     costs.encode_command = C::now().wrapping_sub(t0);
     costs.command_frame_len = down_len;
+    let t0 = C::now();
+    let telemetry_len =
+        encode_telemetry(black_box(&telemetry), &mut down_buf).map_or(0, <[u8]>::len);
+    costs.encode_telemetry = C::now().wrapping_sub(t0);
+    costs.telemetry_frame_len = telemetry_len;
     costs
 }
 
@@ -442,7 +471,8 @@ mod tests {
         assert!(c.script_ok, "{c:?}");
         assert!(c.steps > 300, "{c:?}");
         assert!((82..=98).contains(&c.measurement_frame_len), "{c:?}");
-        assert!((126..=297).contains(&c.command_frame_len), "{c:?}");
+        assert!((101..=137).contains(&c.command_frame_len), "{c:?}");
+        assert!((55..=235).contains(&c.telemetry_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
         assert!((400..=420).contains(&c.config_frame_len), "{c:?}");
         assert_eq!(c.step_stack_bytes, None);

@@ -4,8 +4,8 @@
 //! MCU reset (the STM32F4's reset flags in RCC_CSR, decoded by [`reset_cause_from_rcc_csr`],
 //! then cleared), which clock it runs on, and whether a fault record survived the reset
 //! (`crate::board::fault`); it hands them to [`crate::app::App::new`] as a [`BootReport`].
-//! The application puts the cause and the clock in every command frame
-//! ([`Downlink::reset_cause`], [`Downlink::clock`]) and, after an abnormal reset, keeps the
+//! The application puts the cause and the clock in every telemetry frame
+//! ([`Telemetry::reset_cause`], [`Telemetry::clock`]) and, after an abnormal reset, keeps the
 //! controller in standby until the peer acknowledges ([`BootReport::needs_acknowledgement`]).
 //!
 //! Invariant: after any reset the controller starts in standby with the trim commands; it
@@ -18,7 +18,7 @@
 use ibvs_core::wire::{ClockSource, ResetCause};
 
 #[cfg(doc)]
-use ibvs_core::wire::Downlink;
+use ibvs_core::wire::Telemetry;
 
 /// Reset flags of the STM32F4's RCC_CSR (RM0090, "RCC clock control & status register"),
 /// set by hardware, cleared together by writing [`rcc_csr::RMVF`].

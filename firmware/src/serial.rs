@@ -30,7 +30,7 @@
 //! - The interrupt writes at most the queue's capacity per run and returns; with TXE's
 //!   interrupt enabled only while bytes remain, an idle link raises no interrupt.
 
-use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
 
 /// A queue refused bytes: they did not fit (nothing was queued).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -171,6 +171,8 @@ pub struct SerialQueues<const RX: usize, const TX: usize> {
     rx: ByteQueue<RX>,
     tx: ByteQueue<TX>,
     rx_errors: AtomicU32,
+    /// A frame's end (a zero) was queued since the main loop's last read.
+    rx_frame_end: AtomicBool,
 }
 
 impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
@@ -180,6 +182,7 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
             rx: ByteQueue::new(),
             tx: ByteQueue::new(),
             rx_errors: AtomicU32::new(0),
+            rx_frame_end: AtomicBool::new(false),
         }
     }
 
@@ -198,8 +201,14 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
         if sr.rx_ready || sr.rx_error {
             // Reading the data register after the status clears RXNE and the error flags.
             let byte = regs.read_data();
-            if sr.rx_ready && self.rx.push(byte).is_err() {
-                self.rx_errors.fetch_add(1, Ordering::Relaxed);
+            if sr.rx_ready {
+                match self.rx.push(byte) {
+                    Ok(()) if byte == 0 => self.rx_frame_end.store(true, Ordering::Release),
+                    Ok(()) => {}
+                    Err(QueueFull) => {
+                        self.rx_errors.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
             }
         }
         let mut budget = TX;
@@ -214,12 +223,23 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
 
     /// Main loop: moves received bytes into `buf`; how many (0 when none wait).
     pub fn read(&self, buf: &mut [u8]) -> usize {
-        self.rx.pop_into(buf)
+        // Cleared before the bytes are taken: a zero queued meanwhile sets it again. Bytes
+        // left behind (`buf` was full) may hold a frame's end: set again, read next.
+        self.rx_frame_end.store(false, Ordering::Relaxed);
+        let n = self.rx.pop_into(buf);
+        if !self.rx.is_empty() {
+            self.rx_frame_end.store(true, Ordering::Relaxed);
+        }
+        n
     }
 
-    /// True when received bytes wait.
-    pub fn rx_pending(&self) -> bool {
-        !self.rx.is_empty()
+    /// True when the main loop should read: a frame's end (a zero) is queued, or the queue
+    /// is half full (bytes that end no frame are read before they could overflow it). The
+    /// application decodes a frame once it is whole, in one pass over the queued bytes: the
+    /// work after a frame's last byte is the same however its bytes arrived, and a frame
+    /// costs one decode call, not one a byte.
+    pub fn rx_ready(&self) -> bool {
+        self.rx_frame_end.load(Ordering::Acquire) || self.rx.len() >= RX / 2
     }
 
     /// Receive errors (flagged by the USART, or a byte the full queue could not take) since
@@ -420,8 +440,43 @@ mod tests {
         assert_eq!(link.take_rx_errors(), 0, "taken");
         assert_eq!(link.read(&mut out), 1);
         assert_eq!(out[0], 9);
-        assert!(!link.rx_pending());
+        assert!(!link.rx_ready());
         // Receiving touches the transmit side only to keep its interrupt off.
         assert!(usart.sent.is_empty() && !usart.txeie);
+    }
+
+    #[test]
+    fn the_main_loop_reads_at_a_frames_end_or_a_half_full_queue() {
+        let link = SerialQueues::<8, 16>::new();
+        let mut usart = Usart::default();
+        let mut receive = |b: u8| {
+            usart.rx = Some(b);
+            link.on_interrupt(&mut usart);
+        };
+        for b in [5, 6, 7] {
+            receive(b);
+        }
+        assert!(!link.rx_ready(), "three bytes of a frame: not yet");
+        receive(0);
+        assert!(link.rx_ready(), "its end");
+        let mut out = [0u8; 8];
+        assert_eq!(link.read(&mut out), 4);
+        assert!(!link.rx_ready(), "read");
+        // A frame end queued while the loop reads is seen on its next pass.
+        receive(1);
+        assert!(!link.rx_ready());
+        receive(0);
+        assert!(link.rx_ready());
+        assert_eq!(link.read(&mut out[..1]), 1, "part of it taken");
+        assert!(link.rx_ready(), "the rest, its end among it, is read next");
+        assert_eq!(link.read(&mut out), 1);
+        assert!(!link.rx_ready());
+        // Bytes that end no frame: read once they half fill the queue.
+        for b in [1, 2, 3] {
+            receive(b);
+        }
+        assert!(!link.rx_ready());
+        receive(4);
+        assert!(link.rx_ready(), "half of 8");
     }
 }

@@ -19,7 +19,7 @@
 //! | `/controller/input` | the rest of its input: probe contact, mode request |
 //! | `/controller/output` | the whole `ibvs_core::ControllerOutput` (new fields appear by themselves) |
 //! | `/link/uplink_frame` | PIL: the raw measurement frame (hex), decoded, the host's link counts |
-//! | `/link/downlink_frame` | PIL: the raw command frame (hex), decoded: link counters, controller counters, step cost |
+//! | `/link/downlink_frame` | PIL: the raw command frame (hex), decoded: output, step cost, configuration id (the counters travel in telemetry frames, not per step) |
 //!
 //! Schemas are inferred from the messages themselves (every field any message of the channel
 //! has, with the JSON type it takes), so a field added to a serialised type is in the schema
@@ -330,8 +330,9 @@ const CHANNELS: &[ChannelDef] = &[
         topic: "/link/downlink_frame",
         schema: "ibvs.link.DownlinkFrame",
         description: "PIL: the command frame that answered the step, COBS-encoded with its zero \
-             (hex), decoded: sequence numbers, link status bits, the firmware's link and \
-             controller counters, and the step's cost (instructions under QEMU).",
+             (hex), decoded: sequence numbers, link status bits, the step's output, its cost \
+             (instructions under QEMU) and the configuration's id (the firmware's counters \
+             travel in its telemetry frames, not per step).",
         message: downlink,
     },
 ];

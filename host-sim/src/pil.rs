@@ -37,10 +37,12 @@
 //! link is kept ([`PilLink::sent_bytes`]), so a test can replay it through the core's decoder
 //! and predict exactly what the firmware must have counted.
 //!
-//! Every command frame says why the firmware last reset and which clock it runs on
-//! (`Downlink::reset_cause`, `Downlink::clock`); the link keeps the boot frame's
-//! ([`PilLink::boot_frame`]) and the statistics report the latest ([`PilStats::reset_cause`]),
-//! so a hardware-in-the-loop run, which opens the link after the boot frame, reports it too.
+//! The firmware's counters, why it last reset and which clock it runs on come in telemetry
+//! frames (`Telemetry`: one after the boot frame, one on request, and in its free-running
+//! schedule when a counter changed): the link keeps the latest ([`PilLink::telemetry`]),
+//! asks for one when it must be current ([`PilLink::request_telemetry`]; a run's statistics
+//! at its end), and the statistics report it ([`PilStats::reset_cause`]), so a
+//! hardware-in-the-loop run, which opens the link after the boot frame, reports them too.
 //!
 //! Invariant: the child QEMU process is killed and reaped, and its temporary directory
 //! removed, when the link is dropped (set `IBVS_PIL_KEEP=1` to keep the directory and log).
@@ -60,8 +62,9 @@ use ibvs_core::controller::{ControllerInput, ControllerOutput, Counters};
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::wire::{
     ClockSource, ConfigReport, ConfigStatus, CostUnit, Downlink, FlightComputerMessage,
-    FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause, Uplink, WireError,
-    config_id, encode_config_read, encode_config_write, encode_uplink,
+    FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause, Telemetry, Uplink,
+    WireError, config_id, encode_config_read, encode_config_write, encode_telemetry_request,
+    encode_uplink,
 };
 use serde::Serialize;
 
@@ -95,6 +98,9 @@ pub enum PilError {
     /// QEMU did not connect to the link's socket in time.
     #[error("QEMU did not connect to the serial socket within {0:?}")]
     ConnectTimeout(Duration),
+    /// The firmware sent no telemetry frame in time after a request.
+    #[error("no telemetry frame from the firmware within {0:?}")]
+    NoTelemetry(Duration),
     /// The firmware sent no boot frame in time.
     #[error("no boot frame from the firmware within {0:?}")]
     NoBootFrame(Duration),
@@ -453,6 +459,8 @@ pub struct PilLink {
     last_frame: Vec<u8>,
     sent: Vec<u8>,
     boot: Downlink,
+    /// The latest telemetry frame received (`None` before the first).
+    telemetry: Option<Telemetry>,
     /// Bytes of the command frame being received, and of the last one accepted.
     rx_frame: Vec<u8>,
     last_rx_frame: Vec<u8>,
@@ -623,6 +631,7 @@ impl PilLink {
             last_frame: Vec::new(),
             sent: Vec::new(),
             boot: Downlink::default(),
+            telemetry: None,
             rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
             last_rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
         }
@@ -766,9 +775,10 @@ impl PilLink {
     }
 
     /// The next command frame within `timeout` (`None` when none came). Rejected frames are
-    /// counted in [`HostLinkCounters::rx`] and skipped; a configuration report (none is
-    /// expected here: the firmware sends one only in answer to a configuration frame) is
-    /// counted in [`HostLinkCounters::unexpected_frames`] and skipped.
+    /// counted in [`HostLinkCounters::rx`] and skipped; a telemetry frame is kept
+    /// ([`PilLink::telemetry`]); a configuration report (none is expected here: the firmware
+    /// sends one only in answer to a configuration frame) is counted in
+    /// [`HostLinkCounters::unexpected_frames`] and skipped.
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Downlink>, PilError> {
         let deadline = Instant::now() + timeout;
         loop {
@@ -776,7 +786,39 @@ impl PilLink {
             match self.recv_message(left)? {
                 None => return Ok(None),
                 Some(FlightComputerMessage::Command(d)) => return Ok(Some(d)),
+                Some(FlightComputerMessage::Telemetry(t)) => self.telemetry = Some(t),
                 Some(FlightComputerMessage::ConfigReport(_)) => self.host.unexpected_frames += 1,
+            }
+        }
+    }
+
+    /// The latest telemetry frame received: the firmware's counters, why it reset, its clock
+    /// (`None` before the first; the firmware sends one after its boot frame).
+    pub fn telemetry(&self) -> Option<&Telemetry> {
+        self.telemetry.as_ref()
+    }
+
+    /// Asks for a telemetry frame and waits `timeout` for it (command frames meanwhile are
+    /// counted in [`HostLinkCounters::unexpected_frames`] and skipped); it is also kept.
+    pub fn request_telemetry(&mut self, timeout: Duration) -> Result<Telemetry, PilError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_telemetry_request(&mut buf).map_err(PilError::Encode)?;
+        self.send_raw(frame)?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv_message(left)? {
+                None => return Err(PilError::NoTelemetry(timeout)),
+                Some(FlightComputerMessage::Telemetry(t)) => {
+                    self.telemetry = Some(t);
+                    return Ok(t);
+                }
+                Some(FlightComputerMessage::Command(d))
+                    if d.link_status.contains(LinkStatus::PANIC) =>
+                {
+                    return Err(self.panicked(&d));
+                }
+                Some(_) => self.host.unexpected_frames += 1,
             }
         }
     }
@@ -796,6 +838,7 @@ impl PilLink {
                     return Err(self.panicked(&d));
                 }
                 Some(FlightComputerMessage::Command(_)) => self.host.unexpected_frames += 1,
+                Some(FlightComputerMessage::Telemetry(t)) => self.telemetry = Some(t),
             }
         }
     }
@@ -863,6 +906,7 @@ impl PilLink {
                         let seq = match &m {
                             FlightComputerMessage::Command(d) => d.seq,
                             FlightComputerMessage::ConfigReport(r) => r.seq,
+                            FlightComputerMessage::Telemetry(t) => t.seq,
                         };
                         self.host.rx.count_sequence(self.rx_seq.observe(seq));
                         return Ok(Some(m));
@@ -1126,24 +1170,39 @@ impl PilFlightComputer {
             .filter(|d| !d.link_status.contains(LinkStatus::RETRANSMIT))
             .collect();
         let costs = |f: fn(&Downlink) -> u32| -> Vec<u32> { fresh.iter().map(|d| f(d)).collect() };
-        let last = self.history.last();
-        let reported = last.unwrap_or(self.link.boot_frame());
+        let t = self.link.telemetry().copied().unwrap_or_default();
         PilStats {
             steps: self.steps,
             step_cost: CostSummary::of(unit, &costs(|d| d.cost.step)),
             decode_cost: CostSummary::of(unit, &costs(|d| d.cost.decode)),
             // The first frame carries the boot frame's encoding cost; all are command frames.
             encode_cost: CostSummary::of(unit, &costs(|d| d.cost.encode_prev)),
-            firmware_link: last.map(|d| d.link).unwrap_or_default(),
-            reset_cause: reported.reset_cause,
-            clock: reported.clock,
-            firmware_counters: last.map(|d| d.counters).unwrap_or_default(),
+            firmware_link: t.link,
+            reset_cause: t.reset_cause,
+            clock: t.clock,
+            firmware_counters: t.counters,
             host: self.link.host,
         }
     }
 
-    /// Stops QEMU; returns the statistics and the firmware's log.
-    pub fn shutdown(self) -> (PilStats, String) {
+    /// Asks the firmware for its telemetry now, so the statistics are current (the
+    /// lockstep firmware sends one only on request); a failure is kept as the last error.
+    pub fn refresh_telemetry(&mut self) -> Option<Telemetry> {
+        match self.link.request_telemetry(self.opts.step_timeout) {
+            Ok(t) => Some(t),
+            Err(e) => {
+                self.last_error = Some(e);
+                None
+            }
+        }
+    }
+
+    /// Stops QEMU; returns the statistics (with telemetry asked for at the end) and the
+    /// firmware's log.
+    pub fn shutdown(mut self) -> (PilStats, String) {
+        if self.link.exit_status().is_none() {
+            self.refresh_telemetry();
+        }
         let stats = self.stats();
         (stats, self.link.shutdown())
     }

@@ -27,7 +27,8 @@ use ibvs_core::controller::{ControllerInput, ControllerOutput, StatusFlags};
 use ibvs_core::measurement::{CameraMeasurement, SequenceTracker};
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, Uplink, encode_downlink,
+    Downlink, FrameDecoder, LinkCounters, LinkStatus, MAX_FRAME_LEN, PeerMessage, Uplink,
+    encode_downlink,
 };
 use ibvs_core::{BreakawayReason, Controller, ControllerConfig, Mode, ModeRequest};
 
@@ -38,10 +39,12 @@ fn replay(sent: &[u8]) -> LinkCounters {
     let mut c = LinkCounters::default();
     for &b in sent {
         if let Some(r) = d.feed(b) {
-            match r.and_then(|p| p.uplink()) {
-                Ok(u) => {
+            match r.and_then(|p| p.peer_message()) {
+                Ok(PeerMessage::Measurement(u)) => {
                     c.count_sequence(seq.observe(u.seq));
                 }
+                // A telemetry request (the host's, at the end) is taken, not counted.
+                Ok(_) => {}
                 Err(e) => c.count(e),
             }
         }
@@ -142,13 +145,14 @@ fn lockstep_counts_every_fault_recovers_framing_and_still_docks() {
         faults,
         ..PilOptions::default()
     };
-    let (r, pil) = pil_run(opts);
+    let (r, mut pil) = pil_run(opts);
+    // The counters as they are now (the lockstep firmware sends them on request).
+    let telemetry = pil.refresh_telemetry().expect("telemetry");
     let stats = pil.stats();
-    let last = *pil.history().last().expect("answers");
     eprintln!("{:?}\n{stats:#?}", r.summary);
 
     // Exactly what the bytes on the wire imply, and by hand.
-    let fw = last.link;
+    let fw = telemetry.link;
     assert_eq!(
         receive_side(&fw),
         receive_side(&replay(pil.link().sent_bytes()))
@@ -165,8 +169,9 @@ fn lockstep_counts_every_fault_recovers_framing_and_still_docks() {
     assert_eq!(fw.rx_errors + fw.tx_errors + fw.tx_dropped, 0);
     assert_eq!(fw.deadline_overruns, 0, "every answer within the deadline");
     // The controller saw the camera frames of the lost steps missing.
-    assert_eq!(last.counters.frames_dropped, lost);
-    assert_eq!(last.counters.steps, steps - lost);
+    assert_eq!(telemetry.counters.frames_dropped, lost);
+    assert_eq!(telemetry.counters.steps, steps - lost);
+    assert_eq!(stats.firmware_counters, telemetry.counters);
     // The host: one timeout and one held output per lost frame; the duplicate's answer
     // arrived unasked.
     let h = stats.host;
@@ -203,9 +208,10 @@ fn lockstep_retransmission_makes_lost_frames_harmless() {
         faults,
         ..PilOptions::default()
     };
-    let (got, pil) = pil_run(opts);
+    let (got, mut pil) = pil_run(opts);
     let mut controller = Controller::new(ControllerConfig::default()).expect("config");
     let reference = run(&Scenario::ideal(), &mut controller).expect("in-process run");
+    pil.refresh_telemetry().expect("telemetry");
     let stats = pil.stats();
     assert_eq!(got.samples.len(), reference.samples.len());
     for (k, (a, b)) in got.samples.iter().zip(&reference.samples).enumerate() {
@@ -284,7 +290,10 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
     let a = *frames.last().expect("command frames");
     assert_eq!(a.output.mode, Mode::PreContact, "{a:?}");
     assert!(!a.link_status.contains(LinkStatus::STALE));
-    assert_eq!(a.link.timeouts, 0);
+    // Telemetry came by itself (counters change every period: one every 10 periods).
+    let t = *link.telemetry().expect("telemetry while flying");
+    assert_eq!(t.link.timeouts, 0);
+    assert!(t.counters.steps > 20, "recent: {t:?}");
     let engaged_at = frames.len();
 
     // 2. Silence for 1.5 s (75 periods): command frames keep coming; stale after 100 ms;
@@ -312,24 +321,30 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
     let c = b.output.command.as_array();
     assert_eq!([c[0], c[2], c[3]], [trim[0], trim[2], trim[3]]);
     assert!((c[1] - (trim[1] - cfg.modes.breakaway_throttle_cut)).abs() < 1e-6);
-    assert_eq!(b.link.timeouts, 1);
-    assert!(b.link.stale_steps >= 20 && b.link.held_steps > b.link.stale_steps);
+    let t = link
+        .request_telemetry(Duration::from_secs(1))
+        .expect("telemetry");
+    assert_eq!(t.link.timeouts, 1);
+    assert!(t.link.stale_steps >= 20 && t.link.held_steps > t.link.stale_steps);
     // The stale steps ran on repeated camera frames and invalid navigation, all counted.
-    assert!(b.counters.repeated >= b.link.held_steps - 1);
-    assert!(b.counters.nav_non_finite >= b.link.stale_steps);
+    assert!(t.counters.repeated >= t.link.held_steps - 1);
+    assert!(t.counters.nav_non_finite >= t.link.stale_steps);
 
     // 3. The link comes back: fresh again, still in the latched breakaway.
     send_for(&mut link, &mut frames, Duration::from_millis(300));
     let c = *frames.last().expect("frames");
     assert!(!c.link_status.contains(LinkStatus::STALE), "{c:?}");
-    assert_eq!((c.output.mode, c.link.timeouts), (Mode::Breakaway, 1));
-    assert_eq!(c.link.rejected_frames(), 0);
+    let t = link
+        .request_telemetry(Duration::from_secs(1))
+        .expect("telemetry");
+    assert_eq!((c.output.mode, t.link.timeouts), (Mode::Breakaway, 1));
+    assert_eq!(t.link.rejected_frames(), 0);
 
     assert_commands_safe(frames.iter().map(|d| d.output));
     // One command frame per period, numbered without gaps, each queued within the control
     // task's deadline after its tick, none refused by the transmit queue.
     assert_eq!(link.host_counters().rx.seq_gap, 0);
-    assert_eq!((c.link.deadline_overruns, c.link.tx_dropped), (0, 0));
+    assert_eq!((t.link.deadline_overruns, t.link.tx_dropped), (0, 0));
     let log = link.shutdown();
     assert!(log.contains("link stale"), "{log}");
 }

@@ -37,11 +37,12 @@ fn pil_flies_like_in_process(scenario: &Scenario, cfg: &ControllerConfig) -> Run
 
     let elf = firmware_elf().expect("firmware ELF");
     let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
-    // The boot frame: a power-on (the qemu board's report), standby trim.
+    // The boot frame: standby trim; its telemetry: a power-on (the qemu board's report).
     let boot = *pil.link().boot_frame();
     assert!(boot.link_status.contains(LinkStatus::BOOT));
+    let t = pil.refresh_telemetry().expect("telemetry");
     assert_eq!(
-        (boot.reset_cause, boot.clock),
+        (t.reset_cause, t.clock),
         (ResetCause::PowerOn, ClockSource::NotReported)
     );
     pil.configure(cfg)
@@ -55,6 +56,8 @@ fn pil_flies_like_in_process(scenario: &Scenario, cfg: &ControllerConfig) -> Run
     );
     assert_eq!(failure, None, "link failure; firmware log:\n{log}");
 
+    // The firmware's counters at the end are the in-process controller's.
+    assert_eq!(stats.firmware_counters, *controller.counters());
     let (s, r) = (&got.summary, &reference.summary);
     assert_eq!(s.outcome, r.outcome);
     match (s.miss_m, r.miss_m) {

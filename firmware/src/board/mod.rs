@@ -163,7 +163,7 @@ impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
         // WFI so that an interrupt in between cannot be missed: WFI wakes on a pending
         // interrupt even while PRIMASK masks it, which then runs once unmasked.
         cortex_m::interrupt::disable();
-        if !usart1::rx_pending() && !systick::pending() {
+        if !usart1::rx_ready() && !systick::pending() {
             cortex_m::asm::wfi();
         }
         // Note(unsafe): re-enabling interrupts is sound here: we are not inside a critical

@@ -28,9 +28,11 @@ use crate::serial::{QueueFull, SerialQueues, UsartRegisters, UsartStatus};
 
 /// Receive queue capacity, bytes: more than a configuration write (411 bytes, the largest
 /// frame the peer sends) and five measurement frames; 5.5 ms of back-to-back bytes at
-/// 921,600 baud, and the main loop drains it every pass (at least every period, 20 ms,
-/// while the peer sends one measurement frame per period).
+/// 921,600 baud; the main loop drains it at every frame's end and whenever it is half full.
 pub const RX_QUEUE_LEN: usize = 512;
+
+// One read of the application takes the whole queue, so a frame is decoded in one call.
+const _: () = assert!(crate::app::RX_CHUNK_LEN >= RX_QUEUE_LEN);
 
 /// Transmit queue capacity, bytes: the largest frame the link can carry
 /// ([`ibvs_core::wire::MAX_FRAME_LEN`], 640; a configuration report is at most about 520)
@@ -131,9 +133,10 @@ pub fn take_rx_errors() -> u32 {
     LINK.take_rx_errors()
 }
 
-/// True when received bytes wait in the queue.
-pub fn rx_pending() -> bool {
-    LINK.rx_pending()
+/// True when the main loop should read the receive queue: a frame's end is in it, or it is
+/// half full ([`crate::serial::SerialQueues::rx_ready`]).
+pub fn rx_ready() -> bool {
+    LINK.rx_ready()
 }
 
 #[interrupt]
@@ -158,7 +161,7 @@ impl embedded_io::ErrorType for SerialLink {
 
 impl embedded_io::ReadReady for SerialLink {
     fn read_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(rx_pending())
+        Ok(rx_ready())
     }
 }
 

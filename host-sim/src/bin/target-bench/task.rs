@@ -9,19 +9,20 @@
 //!
 //! The control task, from the last byte of a measurement frame to the command frame handed
 //! to the UART:
-//! - lockstep (the `qemu` board's processor-in-the-loop schedule): `App::on_byte` of the
-//!   frame's last byte: the decoder's `feed` completing the frame (COBS, CRC-32C, header),
+//! - lockstep (the `qemu` board's processor-in-the-loop schedule): `App::on_bytes` of the
+//!   received bytes, handed over once the frame's end is queued: the decoder's `feed_slice`
+//!   decoding the frame (COBS, CRC-32C, header),
 //!   the measurement's postcard deserialisation, `accept`, the step (`control_step`), the gain
 //!   schedule's follow-up (`Controller::follow_schedule`) and the command frame's encode
 //!   (`encode_downlink`: postcard, CRC-32C, COBS);
-//! - free-running (the `f405` board's flight schedule): `App::on_byte` of the last byte
+//! - free-running (the `f405` board's flight schedule): `App::on_bytes` of the frame
 //!   (decode and `accept`, which only keeps the frame) plus `App::on_periods` of the next
 //!   control period (step, follow-up, encode).
 //!
-//! Both `on_byte` and `on_periods` are out of line in the firmware for this (`firmware/src/
+//! Both `on_bytes` and `on_periods` are out of line in the firmware for this (`firmware/src/
 //! app.rs`). The bound stops where the frame is in the buffer: its transmission (polled, one
 //! byte per UART character time) is the link's time, not computation. The wake-up from the
-//! idle wait and the read of the receive queue before `on_byte` are not in it either.
+//! idle wait and the read of the receive queue before `on_bytes` are not in it either.
 //!
 //! Invariant: every figure of a board comes from its own ELF; a loop without a matching
 //! declaration in [`LOOPS`] makes the bound an error naming the loop, never a guess.
@@ -36,7 +37,7 @@ use crate::wcet::{
 /// The control step.
 pub const STEP: &str = "ibvs_core::controller::Controller::step";
 /// One received byte (out of line in the firmware for this analysis).
-pub const ON_BYTE: &str = "firmware::app::App::on_byte";
+pub const ON_BYTES: &str = "firmware::app::App::on_bytes";
 /// One control period of the free-running schedule (out of line likewise).
 pub const ON_PERIODS: &str = "firmware::app::App::on_periods";
 /// The receive interrupt.
@@ -48,14 +49,16 @@ pub const SYSTICK: &str = "SysTick";
 /// it.
 pub const PBVS: &str = "ibvs_core::outer::pbvs";
 
-/// Out of the control task: the configuration frames' path (a configuration write or read
-/// is another frame than a measurement frame: it is deserialised by `config_from_bytes`,
-/// applied by `App::configure`, answered by `encode_config_report`; the frame kind chooses,
-/// before any of them runs).
-const CONFIG_PATH: [&str; 3] = [
+/// Out of the control task: the paths of the other frame kinds, chosen by the frame's kind
+/// byte before any of them runs. A configuration write or read is deserialised by
+/// `config_from_bytes`, applied by `App::configure`, answered by `encode_config_report`; a
+/// telemetry request is answered by `encode_telemetry`. The control task is a measurement
+/// frame's.
+const OTHER_FRAMES: [&str; 4] = [
     "firmware::app::App::configure",
     "ibvs_core::wire::config_from_bytes",
     "ibvs_core::wire::encode_config_report",
+    "ibvs_core::wire::encode_telemetry",
 ];
 
 /// Code the task's machine code calls but never reaches: libm's general argument reduction
@@ -66,8 +69,8 @@ const CONFIG_PATH: [&str; 3] = [
 /// test `the_schedule_never_reaches_libm_argument_reduction` checks the table).
 const UNREACHED: [&str; 1] = ["libm::math::rem_pio2f::rem_pio2f"];
 
-/// Out of `on_byte` in the free-running schedule: `accept` keeps the frame there, the step,
-/// the follow-up and the encode run in `on_periods` (lockstep `on_byte` calls them).
+/// Out of `on_bytes` in the free-running schedule: `accept` keeps the frame there, the step,
+/// the follow-up and the encode run in `on_periods` (lockstep `on_bytes` calls them).
 const LOCKSTEP_ONLY: [&str; 3] = [
     "firmware::app::control_step",
     "ibvs_core::controller::Controller::follow_schedule",
@@ -234,8 +237,7 @@ pub const SIZED_CALLEES: &[SizedCallee] = &[SizedCallee {
 /// function and its ordinal among that function's loops (by header address), and checked
 /// against its source (inlined functions `addr2line` finds among its instructions) and its
 /// size in instructions: a code change that moves, adds or reshapes a loop fails the bound
-/// naming the loop, and `target-bench --loops` lists every loop with what it is now. The
-/// frame codec's redesign will replace the codec's entries.
+/// naming the loop, and `target-bench --loops` lists every loop with what it is now.
 pub const LOOPS: &[LoopBound] = &[
     // The interrupt handlers' atomic increments (LDREX/STREX retry loops).
     LoopBound {
@@ -270,10 +272,26 @@ pub const LOOPS: &[LoopBound] = &[
         iterations: 2,
         reason: "the transmit loop, a byte an iteration while the data register is empty: on the MCU a write clears TXE, the register passes its byte to the idle shift register and takes one more, then stays full for a byte time (10 bits), so at most 2; on QEMU a write is immediate and one run empties the queue, but the queue is empty inside the task (the frame queued before it was sent by the run its queuing pended, before the task's first byte could arrive)",
     },
-    // The frame decoder, at the frame's last byte.
+    // The frame decoder, on the receive queue's chunk that ends the frame.
     LoopBound {
-        function: "firmware::app::App::on_byte",
+        function: "firmware::app::App::on_bytes",
         ordinal: 0,
+        source: &["wire::FrameDecoder::take"],
+        instructions: 24,
+        iterations: 512,
+        reason: "COBS decoding, a byte an iteration up to the frame's zero: App::poll hands on_bytes at most RX_CHUNK_LEN = 512 bytes, the whole receive queue, which the boards let it read once a frame's end is in it (so the whole frame is decoded after its last byte)",
+    },
+    LoopBound {
+        function: "ibvs_core::wire::FrameDecoder::skip",
+        ordinal: 0,
+        source: &["wire::FrameDecoder::skip", "position"],
+        instructions: 22,
+        iterations: 128,
+        reason: "a rejected frame's bytes skipped up to its zero, 4 bytes an iteration (the compiler unrolled it): at most the chunk's RX_CHUNK_LEN = 512 bytes",
+    },
+    LoopBound {
+        function: "firmware::app::App::on_bytes",
+        ordinal: 1,
         source: &["wire::check_payload", "crc::crc32::update_table"],
         instructions: 25,
         iterations: 158,
@@ -341,18 +359,18 @@ pub const LOOPS: &[LoopBound] = &[
     LoopBound {
         function: "ibvs_core::wire::encode_downlink",
         ordinal: 0,
-        source: &["wire::encode_frame", "crc::crc32::update_table"],
-        instructions: 27,
-        iterations: 86,
-        reason: "the CRC-32C of the command frame's header and body, 4 bytes an iteration: at most the STEP_PAYLOAD_LEN = 344-byte scratch payload (the code checks it), 86 iterations; the 0..3 left are straight-line code",
+        source: &["wire::write_payload", "crc::crc32::update_table"],
+        instructions: 26,
+        iterations: 62,
+        reason: "the CRC-32C of the command frame's header and body, 4 bytes an iteration: a step frame's payload is at most IN_PLACE_PAYLOAD_LEN = 254 bytes (the code checks it), its CRC covers at most 250, 62 iterations; the 0..3 left are straight-line code",
     },
     LoopBound {
         function: "ibvs_core::wire::encode_downlink",
         ordinal: 1,
-        source: &["wire::cobs_encode"],
-        instructions: 24,
-        iterations: 344,
-        reason: "COBS over the payload and its CRC, a byte an iteration: at most STEP_PAYLOAD_LEN = 344 bytes",
+        source: &["wire::cobs_in_place"],
+        instructions: 55,
+        iterations: 64,
+        reason: "COBS in place over the payload, 4 bytes an iteration (the compiler unrolled it; the 0..3 left are straight-line code): at most IN_PLACE_PAYLOAD_LEN = 254 bytes",
     },
 ];
 
@@ -379,9 +397,9 @@ const FP_LAZY_STACKING: u64 = 18;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Schedule {
-    /// One step per measurement frame, answered at once (`on_byte`).
+    /// One step per measurement frame, answered at once (`on_bytes`).
     Lockstep,
-    /// One step per control period on the latest frame (`on_byte` + `on_periods`).
+    /// One step per control period on the latest frame (`on_bytes` + `on_periods`).
     FreeRunning,
 }
 
@@ -472,10 +490,10 @@ pub fn micros(cycles: u64) -> f64 {
 pub fn assumptions(schedule: Schedule) -> serde_json::Value {
     let task = match schedule {
         Schedule::Lockstep => {
-            "lockstep: App::on_byte of the measurement frame's last byte (decode: COBS, CRC-32C, postcard; accept; Controller::step; Controller::follow_schedule; encode_downlink: postcard, CRC-32C, COBS), until the command frame is in the buffer handed to the UART (its polled transmission not counted)"
+            "lockstep: App::on_bytes of the measurement frame, whole once its last byte is queued (decode: COBS, CRC-32C, postcard; accept; Controller::step; Controller::follow_schedule; encode_downlink: postcard, CRC-32C, COBS), until the command frame is in the buffer handed to the UART (its polled transmission not counted)"
         }
         Schedule::FreeRunning => {
-            "free-running: App::on_byte of the measurement frame's last byte (decode, accept, which keeps the frame: the step, follow-up and encode it calls in lockstep only are left out) plus App::on_periods of the next period (Controller::step, Controller::follow_schedule, encode_downlink), until the command frame is in the buffer handed to the UART (its polled transmission not counted)"
+            "free-running: App::on_bytes of the measurement frame, whole once its last byte is queued (decode, accept, which keeps the frame: the step, follow-up and encode it calls in lockstep only are left out) plus App::on_periods of the next period (Controller::step, Controller::follow_schedule, encode_downlink), until the command frame is in the buffer handed to the UART (its polled transmission not counted)"
         }
     };
     serde_json::json!({
@@ -586,13 +604,13 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
     let (step, _) = figures(d, STEP, rules(&step_rules, false))?;
     let lockstep_exclude: Vec<&str> = [PBVS]
         .into_iter()
-        .chain(CONFIG_PATH)
+        .chain(OTHER_FRAMES)
         .chain(UNREACHED)
         .collect();
     let mut parts = Vec::new();
     let task = match schedule {
         Schedule::Lockstep => {
-            let (f, b) = figures(d, ON_BYTE, rules(&lockstep_exclude, false))?;
+            let (f, b) = figures(d, ON_BYTES, rules(&lockstep_exclude, false))?;
             parts.push(b);
             f
         }
@@ -602,7 +620,7 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
                 .copied()
                 .chain(LOCKSTEP_ONLY)
                 .collect();
-            let (a, ba) = figures(d, ON_BYTE, rules(&byte_exclude, false))?;
+            let (a, ba) = figures(d, ON_BYTES, rules(&byte_exclude, false))?;
             let (b, bb) = figures(d, ON_PERIODS, rules(&lockstep_exclude, false))?;
             parts.extend([ba, bb]);
             a.plus(b)
@@ -639,8 +657,8 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
     let mut components = Vec::new();
     for (function, what, exclude) in [
         (
-            ON_BYTE,
-            "the frame's last byte without the step, follow-up and encode (lockstep calls them from here): feed (COBS, CRC-32C, header), postcard, accept",
+            ON_BYTES,
+            "the frame whole, once its end is queued, without the step, follow-up and encode (lockstep calls them from here): feed_slice (COBS, CRC-32C, header), postcard, accept",
             &byte_exclude,
         ),
         (
@@ -694,11 +712,11 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
 pub fn list_loops(d: &Disassembly) -> Result<Vec<crate::wcet::LoopUse>, String> {
     let exclude: Vec<&str> = [PBVS]
         .into_iter()
-        .chain(CONFIG_PATH)
+        .chain(OTHER_FRAMES)
         .chain(UNREACHED)
         .collect();
     let mut out = Vec::new();
-    for root in [STEP, ON_BYTE, ON_PERIODS, USART1, SYSTICK] {
+    for root in [STEP, ON_BYTES, ON_PERIODS, USART1, SYSTICK] {
         let b = d.bound(root, rules(&exclude, true), Metric::Instructions)?;
         out.extend(b.loops);
     }
