@@ -244,8 +244,16 @@ pub fn desired_velocity(
         }
         _ => cfg.track_gain_per_s,
     };
-    // Relative to the drogue: its own forward velocity is added to the tip's command.
-    let drogue_fwd = e.drogue_velocity_mps[2];
+    // Closing on the drogue, its own forward velocity is added to the tip's command. Holding
+    // the station or clearing, it is not: the drogue's mean forward velocity relative to the
+    // tanker is zero, and its fore-and-aft swing in strong air (±0.3 m/s at the hose's 3.5 s
+    // period) fed forward through the forward channel's second of lag drove the depth hold
+    // into a ±0.8 m oscillation that ran through the station (`StationOverrun`, measured in
+    // MIL-F-8785C 10⁻² air; `docs/scenarios.md`).
+    let drogue_fwd = match fwd {
+        Forward::Contact | Forward::Capture => e.drogue_velocity_mps[2],
+        Forward::Station | Forward::Clear => 0.0,
+    };
     let (fwd_mps, down_bias) = match fwd {
         Forward::Station => {
             let v = cfg.station_gain_per_s * (e.depth_m - cfg.station_depth_m);
@@ -276,5 +284,39 @@ pub fn desired_velocity(
             max_to(drogue_fwd + fwd_mps, -lim.max_closing_mps),
             lim.max_closing_mps,
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drogue 3.5 m ahead (0.5 m behind the station's 3 m), swinging forward at 0.3 m/s.
+    fn swinging_forward() -> DrogueEstimate {
+        DrogueEstimate {
+            offset_m: [0.1, -0.1],
+            mean_offset_m: [0.0, 0.0],
+            drogue_velocity_mps: [0.0, 0.0, 0.3],
+            depth_m: 3.5,
+        }
+    }
+
+    #[test]
+    fn the_station_and_the_missed_approach_ignore_the_drogues_forward_swing() {
+        let (cfg, lim) = (
+            RefuellingConfig::default(),
+            crate::ControllerConfig::default().velocity_limits,
+        );
+        let e = swinging_forward();
+        let fwd = |f| desired_velocity(&e, [0.0, 0.0], f, &cfg, &lim).z_fwd_mps;
+        // Holding the station: the depth hold alone, 0.4/s x 0.5 m.
+        let station = cfg.station_gain_per_s * (e.depth_m - cfg.station_depth_m);
+        assert!((fwd(Forward::Station) - station).abs() < 1e-6);
+        // Clearing: the back-off alone.
+        assert!((fwd(Forward::Clear) + cfg.missed_aft_mps).abs() < 1e-6);
+        // Closing on it: the drogue's forward velocity is added to the contact speed.
+        for f in [Forward::Contact, Forward::Capture] {
+            assert!((fwd(f) - (cfg.contact_speed_mps + 0.3)).abs() < 1e-6);
+        }
     }
 }
