@@ -49,7 +49,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::{CameraMount, body_from_camera};
-use crate::num::sin_cos;
+use crate::num::{max_to, sin_cos};
 
 /// Parameters of the drogue estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -617,6 +617,12 @@ impl DrogueEstimator {
     /// Variance of the depth estimate, m².
     pub fn depth_variance_m2(&self) -> f32 {
         self.axes[2].p[0]
+    }
+
+    /// The drogue's RMS lateral speed as measured (the square root of the larger axis's
+    /// velocity-variance average), m/s: how hard the air drives it.
+    pub fn drogue_speed_rms_mps(&self) -> f32 {
+        libm::sqrtf(max_to(max_to(self.activity[0], self.activity[1]), 0.0))
     }
 
     /// The PSD the air drives the drogue with, as measured, `[right, down]`, m²/s³.
