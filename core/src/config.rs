@@ -450,6 +450,8 @@ config_rules! {
     positive refuelling.max_correction_mps;
     positive refuelling.track_accel_mps2;
     positive refuelling.contact_speed_mps;
+    positive refuelling.rough_air_drogue_speed_mps;
+    positive refuelling.rough_air_contact_speed_mps;
     positive refuelling.abort_offset_m;
     positive refuelling.commit_depth_m;
     positive refuelling.gate_radius_m;
@@ -475,6 +477,8 @@ config_rules! {
         if refuelling.gate_max_horizon_s <= 1.5 * estimator.drogue_time_constant_s;
     holds refuelling.contact_speed_mps
         if refuelling.contact_speed_mps <= velocity_limits.max_closing_mps;
+    holds refuelling.rough_air_contact_speed_mps
+        if refuelling.rough_air_contact_speed_mps <= velocity_limits.max_closing_mps;
     holds refuelling.missed_aft_mps
         if refuelling.missed_aft_mps <= velocity_limits.max_closing_mps;
     holds refuelling.missed_down_mps

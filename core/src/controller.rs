@@ -341,6 +341,9 @@ pub struct Controller {
     scheduled: Scheduled,
     last_outer: OuterOutput,
     v_cmd: VelocityRe,
+    /// Refuelling: the closing speed of the approach flown (or last flown), m/s, chosen as
+    /// it starts from the air the estimator measured ([`procedure::contact_speed`]).
+    contact_mps: f32,
     counters: Counters,
 }
 
@@ -377,6 +380,7 @@ impl Controller {
             },
             last_outer: OuterOutput::default(),
             v_cmd: VelocityRe::ZERO,
+            contact_mps: cfg.refuelling.contact_speed_mps,
             counters: Counters::default(),
         };
         c.set_design(d);
@@ -535,6 +539,7 @@ impl Controller {
                 est,
                 ahead,
                 fwd,
+                self.contact_mps,
                 &self.cfg.refuelling,
                 &self.cfg.velocity_limits,
             )
@@ -775,6 +780,14 @@ impl Controller {
                     if let Some(fr) = &frame {
                         self.estimator.start(fr, &self.cfg.estimator);
                     }
+                }
+                // Each approach closes at the speed the air it starts in asks for, kept to
+                // its end (docs/conventions.md, "The refuelling procedure").
+                (Mode::PreContact, Mode::Approach) => {
+                    self.contact_mps = procedure::contact_speed(
+                        self.estimator.drogue_speed_rms_mps(),
+                        &self.cfg.refuelling,
+                    );
                 }
                 _ => {}
             }

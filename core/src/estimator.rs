@@ -49,7 +49,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::{CameraMount, body_from_camera};
-use crate::num::sin_cos;
+use crate::num::{max_to, sin_cos};
 
 /// Parameters of the drogue estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -619,6 +619,12 @@ impl DrogueEstimator {
         self.axes[2].p[0]
     }
 
+    /// The drogue's RMS lateral speed as measured (the square root of the larger axis's
+    /// velocity-variance average), m/s: how hard the air drives it.
+    pub fn drogue_speed_rms_mps(&self) -> f32 {
+        libm::sqrtf(max_to(max_to(self.activity[0], self.activity[1]), 0.0))
+    }
+
     /// The PSD the air drives the drogue with, as measured, `[right, down]`, m²/s³.
     pub fn measured_accel_psd_m2ps3(&self, m: &EstimatorModel) -> [f32; 2] {
         self.activity.map(|a| m.psd_per_variance * a)
@@ -892,6 +898,10 @@ mod tests {
         let q = e.measured_accel_psd_m2ps3(&m)[0];
         let want = 2.0 / cfg.drogue_time_constant_s * 0.5 * (0.3 * w) * (0.3 * w);
         assert!((q / want - 1.0).abs() < 0.3, "{q} vs {want}");
+        // ... and its RMS speed, which chooses the rough-air contact speed: 0.48 / √2 m/s.
+        let rms = e.drogue_speed_rms_mps();
+        let want_rms = 0.3 * w / core::f32::consts::SQRT_2;
+        assert!((rms / want_rms - 1.0).abs() < 0.15, "{rms} vs {want_rms}");
         // Half a second ahead the velocity is expected to have decayed by exp(-0.5 / τ).
         let now = e.estimate().drogue_velocity_mps[0];
         let ahead = e.drogue_velocity_ahead(0.5, &m)[0];
@@ -975,6 +985,10 @@ mod tests {
         let z0 = e.depth_variance_m2();
         // Still air: the measured activity decays from the configured level toward zero.
         let q0 = e.measured_accel_psd_m2ps3(&m)[0];
+        // It starts at the configured PSD's RMS speed, sqrt(q τ / 2).
+        let rms0 = e.drogue_speed_rms_mps();
+        let want = libm::sqrtf(cfg.drogue_accel_psd_m2ps3 * cfg.drogue_time_constant_s / 2.0);
+        assert!((rms0 - want).abs() < 1e-6, "{rms0} vs {want}");
         // Closing at 1 m/s for 0.5 s: depth dead-reckons to 0.5 m.
         for _ in 0..25 {
             e.predict([0.0, 0.0, 1.0], &m);
@@ -985,5 +999,6 @@ mod tests {
         assert!(e.offset_variance_m2()[0] > v0 && e.depth_variance_m2() > z0);
         let q = e.measured_accel_psd_m2ps3(&m)[0];
         assert!(q < q0 * 0.9, "{q} vs {q0}");
+        assert!(e.drogue_speed_rms_mps() < rms0);
     }
 }

@@ -348,7 +348,7 @@ mod tests {
         let text = to_text(&schema());
         assert!(
             text.contains(
-                "refuelling.late_gate_final_radius_m = 0.27  # m\n    requires finite, > 0\n    \
+                "refuelling.late_gate_final_radius_m = 0.25  # m\n    requires finite, > 0\n    \
              requires refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m\n"
             ),
             "{text}"
