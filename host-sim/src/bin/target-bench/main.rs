@@ -14,7 +14,8 @@
 //!    camera; the ideal world; level II turbulence (a missed approach and a docking);
 //!    the bow wave; 50 % frame loss; three runs
 //!    that break away: 90 % frame loss, a frozen tracker, a slow throttle (overspeed)), and
-//!    every step's [`ControllerInput`] is kept; each must end as named, or the run fails. Two more input
+//!    every step's [`ControllerInput`] is kept; each must end as named, and together they
+//!    must fly every mode of the procedure, or the run fails. Two more input
 //!    sequences are derived from recorded ones: the navigation lost mid-approach (hold, then
 //!    breakaway open loop) and a docking held then lost (docked, then breakaway).
 //! 2. Replay: each sequence goes through the `qemu` firmware in QEMU's emulated STM32F405
@@ -68,7 +69,7 @@ mod paths;
 mod task;
 mod wcet;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -217,8 +218,8 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "level2 seed 1: level II turbulence (0.7 m/s), a late no-go in the first capture, docks on the second approach",
-            preset("level2", 1, |_| {})?,
+            "level2 seed 31: level II turbulence (0.7 m/s), a no-go on the first approach, a missed approach, docks on the second",
+            preset("level2", 31, |_| {})?,
             vec![],
             "docked",
         ),
@@ -382,6 +383,8 @@ struct Replay {
     decode: Vec<u32>,
     encode: Vec<u32>,
     by_mode: BTreeMap<String, Vec<u32>>,
+    /// The modes the controller was in after a step.
+    modes: BTreeSet<&'static str>,
     control_stack: Option<u32>,
     firmware_stack: Option<u32>,
 }
@@ -418,6 +421,7 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
         decode: Vec::new(),
         encode: Vec::new(),
         by_mode: BTreeMap::new(),
+        modes: BTreeSet::new(),
         control_stack: None,
         firmware_stack: None,
     };
@@ -454,6 +458,7 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
             format!("{} -> {}", mode_name(before), mode_name(want.mode))
         };
         r.by_mode.entry(key).or_default().push(d.cost.step);
+        r.modes.insert(mode_name(want.mode));
     }
     let (_, log) = fw.shutdown();
     r.control_stack = max_mark(&log, CONTROL_STACK_MARK);
@@ -727,6 +732,7 @@ fn run(args: Args) -> Result<bool, Error> {
     // (exact instruction counts are the point of the emulated target).
     let shortest = (0..workloads.len()).min_by_key(|&i| workloads[i].inputs.len());
     let mut first_replay = None;
+    let mut visited: BTreeSet<&str> = BTreeSet::new();
     for (i, w) in workloads.iter().enumerate() {
         eprintln!(
             "target-bench: {} ({} steps): {}",
@@ -738,6 +744,7 @@ fn run(args: Args) -> Result<bool, Error> {
         if Some(i) == shortest {
             first_replay = Some((r.step.clone(), r.decode.clone(), r.encode.clone()));
         }
+        visited.extend(&r.modes);
         all_step.extend_from_slice(&r.step);
         all_decode.extend_from_slice(&r.decode);
         all_encode.extend_from_slice(&r.encode);
@@ -763,6 +770,28 @@ fn run(args: Args) -> Result<bool, Error> {
             "control_stack_bytes": r.control_stack,
             "firmware_stack_bytes": r.firmware_stack,
         }));
+    }
+    // The workloads stand for the procedure only while they fly all of it.
+    if !workloads.is_empty() {
+        let all = [
+            Mode::Standby,
+            Mode::PreContact,
+            Mode::Approach,
+            Mode::Terminal,
+            Mode::Docked,
+            Mode::MissedApproach,
+            Mode::Breakaway,
+        ];
+        if let Some(m) = all
+            .into_iter()
+            .map(mode_name)
+            .find(|m| !visited.contains(m))
+        {
+            return Err(format!(
+                "the workloads never fly the {m} mode: a workload that did no longer does (main.rs, workloads)"
+            )
+            .into());
+        }
     }
     if let (Some(i), Some(first)) = (shortest, first_replay) {
         let w = &workloads[i];
