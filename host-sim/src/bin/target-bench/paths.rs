@@ -47,6 +47,13 @@ pub struct PathCycles {
     pub cycles_zero_wait: u64,
     /// The same in microseconds.
     pub us_zero_wait: f64,
+    /// The path's arithmetic floor: the floating-point adds, subtracts, multiplies,
+    /// multiply-adds, divisions and square roots it executed, one each ([`is_arithmetic`];
+    /// the fewest of its calls').
+    pub arithmetic: u64,
+    /// Its instructions (the step call's own, without the timing) per arithmetic
+    /// instruction: how far the path is from its floor.
+    pub over_floor: f64,
 }
 
 /// What `--path-cycles` reports.
@@ -70,14 +77,34 @@ struct Costed {
     size: u64,
     operands: String,
     cost: cycles::Cost,
+    arithmetic: bool,
 }
 
-/// One step call's figures: instructions, cycles (every miss), cycles (zero wait states).
+/// One step call's figures: instructions, cycles (every miss), cycles (zero wait states),
+/// floating-point arithmetic instructions.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 struct Call {
     instructions: u64,
     miss: u64,
     hit: u64,
+    arithmetic: u64,
+}
+
+/// A floating-point arithmetic instruction: the work the step's equations ask for (add,
+/// subtract, multiply, the fused and chained multiply-adds, negated products, divide, square
+/// root; one each, whatever its cycles). Loads, stores, moves, compares, conversions,
+/// absolute values and negations, branches and integer bookkeeping are the rest.
+fn is_arithmetic(mnemonic: &str) -> bool {
+    const OPS: [&str; 14] = [
+        "vadd", "vsub", "vmul", "vnmul", "vmla", "vmls", "vnmla", "vnmls", "vfma", "vfms", "vfnma",
+        "vfnms", "vdiv", "vsqrt",
+    ];
+    let op = mnemonic.split('.').next().unwrap_or(mnemonic);
+    // Condition codes (`vaddeq.f32`, in IT blocks) are not part of the operation.
+    OPS.iter().any(|o| {
+        op.strip_prefix(o)
+            .is_some_and(|cc| cc.is_empty() || cc.len() == 2)
+    })
 }
 
 /// Costs an executed instruction stream with the model: each instruction, and each passage
@@ -102,12 +129,22 @@ impl Meter<'_> {
                     size,
                     operands: operands.to_string(),
                     cost,
+                    arithmetic: is_arithmetic(mnemonic),
                 },
             );
         }
         self.known
             .get(&addr)
             .ok_or_else(|| format!("{addr:#x}: not costed"))
+    }
+
+    /// The floating-point arithmetic instructions among `stream`'s ([`is_arithmetic`]).
+    fn arithmetic(&mut self, stream: &[u64]) -> Result<u64, String> {
+        let mut n = 0;
+        for &addr in stream {
+            n += u64::from(self.costed(addr)?.arithmetic);
+        }
+        Ok(n)
     }
 
     /// The model's cycles of `stream` (executed addresses, in order) for `model`.
@@ -296,10 +333,12 @@ pub fn path_cycles(elf: &Path, work_dir: &Path) -> Result<Report, Error> {
                 let instructions = stream.len() as u64;
                 let miss = meter.cycles(&stream, Model::ALL_MISS)?;
                 let hit = meter.cycles(&stream, Model::ALL_HIT)?;
+                let arithmetic = meter.arithmetic(&stream)?;
                 calls.push(Call {
                     instructions,
                     miss,
                     hit,
+                    arithmetic,
                 });
                 stream.clear();
                 back_to = None;
@@ -362,6 +401,7 @@ pub fn path_cycles(elf: &Path, work_dir: &Path) -> Result<Report, Error> {
             format!("path {path}: no traced step call of {instructions} instructions")
         })?;
         let hit = with.iter().map(|c| c.hit).max().unwrap_or(0);
+        let arithmetic = with.iter().map(|c| c.arithmetic).min().unwrap_or(0);
         paths.push(PathCycles {
             path: path.clone(),
             instructions,
@@ -370,6 +410,8 @@ pub fn path_cycles(elf: &Path, work_dir: &Path) -> Result<Report, Error> {
             us: task::micros(miss),
             cycles_zero_wait: hit,
             us_zero_wait: task::micros(hit),
+            arithmetic,
+            over_floor: (instructions - timing) as f64 / arithmetic.max(1) as f64,
         });
     }
     // In the sortie's order, as it printed them.
@@ -457,5 +499,44 @@ Trace 0: 0x7f00 [00800400/08000100/00000010/ff020200] f
         let _ = std::fs::remove_file(&log);
         let f = vec![0x800_0100, 0x800_0102];
         assert_eq!(ran, [f.clone(), vec![0x800_0200], f]);
+    }
+
+    #[test]
+    fn the_floor_counts_floating_point_arithmetic_only() {
+        for m in [
+            "vadd.f32",
+            "vsub.f32",
+            "vmul.f32",
+            "vfma.f32",
+            "vfms.f32",
+            "vnmul.f32",
+            "vdiv.f32",
+            "vsqrt.f32",
+            "vmla.f32",
+            "vaddeq.f32",
+            "vfnms.f32",
+        ] {
+            assert!(is_arithmetic(m), "{m}");
+        }
+        for m in [
+            "vldr",
+            "vstr",
+            "vmov",
+            "vmov.f32",
+            "vcmp.f32",
+            "vcmpe.f32",
+            "vcvt.s32.f32",
+            "vabs.f32",
+            "vneg.f32",
+            "vmrs",
+            "vpush",
+            "add",
+            "mul",
+            "vsel",
+            "vmaxnm.f32",
+            "vaddw",
+        ] {
+            assert!(!is_arithmetic(m), "{m}");
+        }
     }
 }
