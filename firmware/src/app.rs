@@ -37,7 +37,7 @@
 //! done, the configuration flown and its id); the id is in every command frame after it.
 //!
 //! Every rejected byte sequence is counted in [`LinkCounters`] (by the core's
-//! [`LinkCounters::count`]) and so reported in the next command frame; so is every frame the
+//! [`LinkCounters::count`]) and so reported in the next telemetry frame; so is every frame the
 //! transmit queue could not take whole ([`LinkCounters::tx_dropped`]: dropped, never sent in
 //! part).
 //!
@@ -356,7 +356,7 @@ pub struct App {
     base_status: u8,
     /// Status bits of the boot frame only (the configuration's origin).
     boot_status: u8,
-    /// What the board found at reset (in every frame).
+    /// What the board found at reset (in every telemetry frame).
     reset_cause: ResetCause,
     clock: ClockSource,
     /// After an abnormal reset: `Engage` requests are held back until a `Reset` request.
@@ -399,7 +399,7 @@ pub(crate) enum Received {
 
 impl App {
     /// The application in standby, before the boot frame, after the reset the board
-    /// describes (`boot`: its cause and the clock go in every frame, a fault record sets
+    /// describes (`boot`: its cause and the clock go in every telemetry frame, a fault record sets
     /// [`LinkStatus::PREVIOUS_PANIC`]), flying `stored` (the board's stored configuration,
     /// if it has a valid one) or else the built-in default; the boot frame says which
     /// ([`LinkStatus::STORED_CONFIG`]).

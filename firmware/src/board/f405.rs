@@ -10,7 +10,7 @@
 //! 5. the clock: the HSE 8 MHz crystal is given [`HSE_STARTUP_S`] (100 ms) to start; then
 //!    the PLL runs from it to SYSCLK = HCLK = 168 MHz (APB2 84 MHz for USART1, APB1 42 MHz)
 //!    and the clock security system (CSS) watches it; if it does not start, the PLL runs
-//!    from the HSI to the same frequencies (`ClockSource::InternalFallback` in every frame,
+//!    from the HSI to the same frequencies (`ClockSource::InternalFallback` in every telemetry frame,
 //!    logged). An HSE failure later raises the CSS's NMI: the reason is recorded and the
 //!    board resets ([`super::fault::clock_failure_reset`]), and boots on the HSI if the
 //!    crystal is still dead;
