@@ -12,7 +12,7 @@
 
 use crate::inner::{ChannelGains, EngineModel, TrimPoint};
 use crate::predictor::PlantModel;
-use crate::schedule::DesignPoint;
+use crate::design::DesignPoint;
 
 /// Control period the gains were synthesised for, s.
 pub const CONTROL_PERIOD_S: f32 = 0.02;

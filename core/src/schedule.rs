@@ -24,6 +24,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::design::DesignPoint;
 use crate::gains::{self, SCHEDULE, SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
 use crate::inner::{ChannelGains, EngineModel, TrimPoint};
 pub use crate::nav::FlightCondition;
@@ -58,27 +59,6 @@ impl core::fmt::Display for ScheduleError {
 }
 
 impl core::error::Error for ScheduleError {}
-
-/// The whole inner-loop design at one flight condition.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DesignPoint {
-    /// Trim point.
-    pub trim: TrimPoint,
-    /// Engine model.
-    pub engine: EngineModel,
-    /// The paper's procedure's longitudinal gains.
-    pub lon: ChannelGains<5, 2, 2>,
-    /// The paper's procedure's lateral gains.
-    pub lat: ChannelGains<5, 1, 2>,
-    /// The refuelling procedure's longitudinal gains.
-    pub refuel_lon: ChannelGains<5, 2, 2>,
-    /// The refuelling procedure's lateral gains.
-    pub refuel_lat: ChannelGains<5, 1, 2>,
-    /// The latency predictor's longitudinal plant.
-    pub predict_lon: PlantModel<4, 2, 2>,
-    /// The latency predictor's lateral plant.
-    pub predict_lat: PlantModel<5, 2, 2>,
-}
 
 /// The single-point design of [`crate::gains`] as a [`DesignPoint`]: the controller's
 /// design until a navigation sample names another condition, and the schedule's node at

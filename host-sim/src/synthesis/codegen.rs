@@ -188,7 +188,7 @@ pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String 
          //! Design: nonlinear F-16 (low-fidelity data) trimmed at {v} m/s, {h} m, linearised,\n\
          //! discretised by zero-order hold at Ts = {ts} s, integrators as forward sums, discrete LQR.\n\
          //! Weights (diagonal): lon Q {lq:?}, R {lr:?}; lat Q {aq:?}, R {ar:?}.\n\n\
-         use crate::inner::{{ChannelGains, EngineModel, TrimPoint}};\nuse crate::predictor::PlantModel;\nuse crate::schedule::DesignPoint;\n\n\
+         use crate::inner::{{ChannelGains, EngineModel, TrimPoint}};\nuse crate::predictor::PlantModel;\nuse crate::design::DesignPoint;\n\n\
          /// Control period the gains were synthesised for, s.\n\
          pub const CONTROL_PERIOD_S: f32 = {ts_lit};\n\n\
          /// Trim point of the design (residual {res:.1e}).\n\
