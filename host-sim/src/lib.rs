@@ -25,6 +25,13 @@
 //!   [`montecarlo`] (campaigns, shards, merge);
 //! - the target benchmarks are the `target-bench` binary.
 //!
+//! One crate, for now: its modules import each other in one direction only (no cycle; the
+//! list above is that order), so they could become library crates nested under `host-sim/`
+//! along the same cuts (aircraft and design; world; a run; the flight computer in QEMU) with
+//! the command-line program on top. Not done yet: it would buy parallel compilation and
+//! enforced boundaries, and costs a manifest per cut and a re-export layer for the tests and
+//! `target-bench`; the cycle-free order is the precondition, kept.
+//!
 //! Invariant: every random process takes a seed (turbulence, camera noise, INS errors,
 //! dispersion, link faults); the same scenario file gives the same run, bit for bit.
 
