@@ -65,6 +65,7 @@
 
 mod cycles;
 mod elf;
+mod memory;
 mod paths;
 mod task;
 mod wcet;
