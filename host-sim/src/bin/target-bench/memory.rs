@@ -182,8 +182,7 @@ pub fn region_of(lo: u64, hi: u64) -> Region {
 
 /// The registers as objdump names them (r10..r12 as `sl`, `fp`, `ip`), by number.
 const NAMES: [&str; 16] = [
-    "r0", "r1", "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "sl", "fp", "ip", "sp", "lr",
-    "pc",
+    "r0", "r1", "r2", "r3", "r4", "r5", "r6", "r7", "r8", "r9", "sl", "fp", "ip", "sp", "lr", "pc",
 ];
 /// Other names a register may be printed with.
 const ALIASES: [(usize, &str); 7] = [
@@ -200,12 +199,10 @@ const PC: usize = 15;
 
 fn register(name: &str) -> Option<usize> {
     let n = name.trim();
-    NAMES.iter().position(|r| *r == n).or_else(|| {
-        ALIASES
-            .iter()
-            .find(|(_, a)| *a == n)
-            .map(|(k, _)| *k)
-    })
+    NAMES
+        .iter()
+        .position(|r| *r == n)
+        .or_else(|| ALIASES.iter().find(|(_, a)| *a == n).map(|(k, _)| *k))
 }
 
 /// The registers' values before an instruction.
@@ -646,10 +643,22 @@ mod tests {
 ",
         );
         assert_eq!(at(&p, 0x800_0108), Some(Region::Sram), "0x2001f744");
-        assert_eq!(at(&p, 0x800_0114), Some(Region::Apb2), "USART1 SR, 0x40011000");
+        assert_eq!(
+            at(&p, 0x800_0114),
+            Some(Region::Apb2),
+            "USART1 SR, 0x40011000"
+        );
         assert_eq!(at(&p, 0x800_0118), Some(Region::Apb2), "USART1 DR, a store");
-        assert_eq!(at(&p, 0x800_0124), Some(Region::Apb1), "TIM2 CNT, 0x40000024");
-        assert_eq!(at(&p, 0x800_0126), Some(Region::Unknown), "an argument's pointer");
+        assert_eq!(
+            at(&p, 0x800_0124),
+            Some(Region::Apb1),
+            "TIM2 CNT, 0x40000024"
+        );
+        assert_eq!(
+            at(&p, 0x800_0126),
+            Some(Region::Unknown),
+            "an argument's pointer"
+        );
         assert_eq!(at(&p, 0x800_0128), Some(Region::Flash), "the literal pool");
         assert_eq!(at(&p, 0x800_012a), Some(Region::Stack));
         assert_eq!(at(&p, 0x800_0100), None, "no access");
@@ -739,8 +748,16 @@ mod tests {
 ",
         );
         assert_eq!(at(&p, 0x800_0102), Some(Region::Stack));
-        assert_eq!(at(&p, 0x800_0104), Some(Region::Flash), "the literal itself");
-        assert_eq!(at(&p, 0x800_0106), Some(Region::Sram), "through the literal's address");
+        assert_eq!(
+            at(&p, 0x800_0104),
+            Some(Region::Flash),
+            "the literal itself"
+        );
+        assert_eq!(
+            at(&p, 0x800_0106),
+            Some(Region::Sram),
+            "through the literal's address"
+        );
         assert_eq!(at(&p, 0x800_0108), Some(Region::Sram));
     }
 
@@ -764,8 +781,16 @@ mod tests {
         );
         // r1 is 0x20000000 or 0 (the flash alias): no one region.
         assert_eq!(at(&p, 0x800_010e), Some(Region::Unknown));
-        assert_eq!(at(&p, 0x800_0118), Some(Region::Sram), "pre-indexed: base + 4");
-        assert_eq!(at(&p, 0x800_011c), Some(Region::Unknown), "the base written back");
+        assert_eq!(
+            at(&p, 0x800_0118),
+            Some(Region::Sram),
+            "pre-indexed: base + 4"
+        );
+        assert_eq!(
+            at(&p, 0x800_011c),
+            Some(Region::Unknown),
+            "the base written back"
+        );
     }
 
     #[test]
@@ -774,8 +799,16 @@ mod tests {
         assert_eq!(region_of(0x2001_FFFC, 0x2002_0003), Region::Unknown);
         assert_eq!(region_of(0x4001_1000, 0x4001_1003), Region::Apb2);
         assert_eq!(region_of(0x4000_0024, 0x4000_0027), Region::Apb1);
-        assert_eq!(region_of(0x4002_3800, 0x4002_3803), Region::Peripheral, "RCC on AHB1");
-        assert_eq!(region_of(0xE000_E100, 0xE000_E103), Region::Peripheral, "NVIC");
+        assert_eq!(
+            region_of(0x4002_3800, 0x4002_3803),
+            Region::Peripheral,
+            "RCC on AHB1"
+        );
+        assert_eq!(
+            region_of(0xE000_E100, 0xE000_E103),
+            Region::Peripheral,
+            "NVIC"
+        );
         assert_eq!(region_of(0x0800_4000, 0x0800_4003), Region::Flash);
         assert_eq!(region_of(0x3000_0000, 0x3000_0003), Region::Unknown);
     }

@@ -653,7 +653,9 @@ impl Disassembly {
     /// The lines of the function at `addr` (tests of other modules).
     #[cfg(test)]
     pub(crate) fn lines_of(&self, addr: u64) -> &[Line] {
-        self.functions.get(&addr).map_or(&[], |f| f.lines.as_slice())
+        self.functions
+            .get(&addr)
+            .map_or(&[], |f| f.lines.as_slice())
     }
 
     /// The region each instruction of the function at `addr` reaches with its data access
@@ -1842,13 +1844,14 @@ mod tests {
         assert_eq!(c("sram", Model::ALL_HIT), base);
         assert_eq!(c("sram", Model::ALL_MISS), base + w);
         assert_eq!(c("unplaced", Model::ALL_HIT), base);
-        assert_eq!(c("unplaced", Model::ALL_MISS), base + w + w, "the load's miss");
+        assert_eq!(
+            c("unplaced", Model::ALL_MISS),
+            base + w + w,
+            "the load's miss"
+        );
         // An APB2 register: its bus's latency, with or without the flash's wait states.
         assert_eq!(c("usart", Model::ALL_HIT), base + cycles::APB2_ACCESS);
-        assert_eq!(
-            c("usart", Model::ALL_MISS),
-            base + w + cycles::APB2_ACCESS
-        );
+        assert_eq!(c("usart", Model::ALL_MISS), base + w + cycles::APB2_ACCESS);
         let b = d
             .bound("usart", Rules::default(), Metric::Cycles(Model::ALL_MISS))
             .expect("usart");
