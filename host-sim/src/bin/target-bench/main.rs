@@ -519,6 +519,67 @@ const BUDGETS: [&str; 7] = [
     "f405.stack_bytes_bound",
 ];
 
+/// The figures the gate guards against their expectations (`BOARD`, `METRIC`, the path to
+/// the figure in the report): each must be in both the expectations file and the report
+/// (either missing is an error, not a pass) and must not grow past its expectation plus the
+/// tolerance.
+const GUARDED: &[(&str, &str, &[&str])] = &[
+    (
+        "qemu",
+        "step_instructions_max",
+        &["step_instructions", "max"],
+    ),
+    // The static bound must exist (a loop, recursion or an indirect call in the step's
+    // code makes it `null`, and the check fails) and must not grow.
+    (
+        "qemu",
+        "step_instructions_bound",
+        &["step_instructions_bound"],
+    ),
+    (
+        "f405",
+        "step_instructions_bound",
+        &["step_instructions_bound"],
+    ),
+    // The codec's worst case over the workloads: a measurement frame's decode (whole, once
+    // its end is queued) and a command frame's encode, each repeatable (the run replays one
+    // workload twice and fails unless every figure is identical).
+    ("qemu", "decode_instructions", &["decode_instructions"]),
+    ("qemu", "encode_instructions", &["encode_instructions"]),
+    ("qemu", "stack_bytes", &["stack_bytes"]),
+    // The step's static stack (its frame and its deepest callee's: the f405 board's only
+    // stack figure), which must exist like the other static bounds.
+    ("qemu", "stack_bytes_bound", &["stack_bytes_bound"]),
+    ("f405", "stack_bytes_bound", &["stack_bytes_bound"]),
+    ("qemu", "flash_bytes", &["flash_bytes"]),
+    ("f405", "flash_bytes", &["flash_bytes"]),
+    // Static RAM (`.data`, `.bss`, `.uninit`).
+    ("qemu", "ram_bytes", &["ram_bytes"]),
+    ("f405", "ram_bytes", &["ram_bytes"]),
+    // The cycle bounds (wcet.rs, task.rs): the step's and the whole control task's, in
+    // cycles and microseconds at 168 MHz, and the task's instructions; each must exist
+    // (an undeclared or stale loop, an unknown instruction or an unbounded call makes it
+    // `null`, and the check fails).
+    ("qemu", "step_cycles_bound", &["step_cycles_bound"]),
+    ("f405", "step_cycles_bound", &["step_cycles_bound"]),
+    ("qemu", "step_us_bound", &["step_us_bound"]),
+    ("f405", "step_us_bound", &["step_us_bound"]),
+    (
+        "qemu",
+        "cycle_instructions_bound",
+        &["cycle_instructions_bound"],
+    ),
+    (
+        "f405",
+        "cycle_instructions_bound",
+        &["cycle_instructions_bound"],
+    ),
+    ("qemu", "cycle_cycles_bound", &["cycle_cycles_bound"]),
+    ("f405", "cycle_cycles_bound", &["cycle_cycles_bound"]),
+    ("qemu", "cycle_us_bound", &["cycle_us_bound"]),
+    ("f405", "cycle_us_bound", &["cycle_us_bound"]),
+];
+
 /// Compares `report` with the expectations file; the regressions (empty: none).
 fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
     let text = std::fs::read_to_string(expected_path)
@@ -528,61 +589,7 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
         .as_f64()
         .ok_or("expectations: tolerance_percent missing")?;
     let mut regressions = Vec::new();
-    for (board, metric, path) in [
-        (
-            "qemu",
-            "step_instructions_max",
-            &["step_instructions", "max"][..],
-        ),
-        // The static bound must exist (a loop, recursion or an indirect call in the step's
-        // code makes it `null`, and the check fails) and must not grow.
-        (
-            "qemu",
-            "step_instructions_bound",
-            &["step_instructions_bound"][..],
-        ),
-        (
-            "f405",
-            "step_instructions_bound",
-            &["step_instructions_bound"][..],
-        ),
-        // The codec's worst case over the workloads (repeatable since the decode is timed
-        // byte by byte with interrupts masked).
-        ("qemu", "decode_instructions", &["decode_instructions"][..]),
-        ("qemu", "encode_instructions", &["encode_instructions"][..]),
-        ("qemu", "stack_bytes", &["stack_bytes"][..]),
-        // The step's static stack (its frame and its deepest callee's: the f405 board's only
-        // stack figure), which must exist like the other static bounds.
-        ("qemu", "stack_bytes_bound", &["stack_bytes_bound"][..]),
-        ("f405", "stack_bytes_bound", &["stack_bytes_bound"][..]),
-        ("qemu", "flash_bytes", &["flash_bytes"][..]),
-        ("f405", "flash_bytes", &["flash_bytes"][..]),
-        // Static RAM (`.data`, `.bss`, `.uninit`).
-        ("qemu", "ram_bytes", &["ram_bytes"][..]),
-        ("f405", "ram_bytes", &["ram_bytes"][..]),
-        // The cycle bounds (wcet.rs, task.rs): the step's and the whole control task's, in
-        // cycles and microseconds at 168 MHz, and the task's instructions; each must exist
-        // (an undeclared or stale loop, an unknown instruction or an unbounded call makes it
-        // `null`, and the check fails).
-        ("qemu", "step_cycles_bound", &["step_cycles_bound"][..]),
-        ("f405", "step_cycles_bound", &["step_cycles_bound"][..]),
-        ("qemu", "step_us_bound", &["step_us_bound"][..]),
-        ("f405", "step_us_bound", &["step_us_bound"][..]),
-        (
-            "qemu",
-            "cycle_instructions_bound",
-            &["cycle_instructions_bound"][..],
-        ),
-        (
-            "f405",
-            "cycle_instructions_bound",
-            &["cycle_instructions_bound"][..],
-        ),
-        ("qemu", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
-        ("f405", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
-        ("qemu", "cycle_us_bound", &["cycle_us_bound"][..]),
-        ("f405", "cycle_us_bound", &["cycle_us_bound"][..]),
-    ] {
+    for &(board, metric, path) in GUARDED {
         let want = expected[board][metric]
             .as_f64()
             .ok_or_else(|| format!("expectations: {board}.{metric} missing"))?;
@@ -1095,7 +1102,10 @@ mod tests {
             r[board]["stack_bytes_bound"] = json!(307);
             let got = check(&r, &e.0).expect("check");
             assert_eq!(got.len(), 2, "{got:?}");
-            assert!(got[0].starts_with(&format!("{board}.stack_bytes_bound")), "{got:?}");
+            assert!(
+                got[0].starts_with(&format!("{board}.stack_bytes_bound")),
+                "{got:?}"
+            );
             assert!(got[1].starts_with(&format!("{board}.ram_bytes")), "{got:?}");
             // The static stack must exist, like the other static bounds.
             r[board]["stack_bytes_bound"] = Value::Null;
@@ -1126,6 +1136,42 @@ mod tests {
             let f = tempfile_path::write(&v);
             let err = check(&r, &f.0).expect_err(key);
             assert!(err.to_string().contains(key), "{key}: {err}");
+        }
+    }
+
+    /// Every guarded figure, one at a time: missing from the expectations file, missing
+    /// from the report, or grown past its tolerance, the check fails naming it.
+    #[test]
+    fn every_guarded_figure_fails_the_check_when_missing_or_grown() {
+        let e = expectations_value(1 << 20);
+        let ok = report(800, Some(1100), 60000);
+        let file = tempfile_path::write(&e);
+        assert!(check(&ok, &file.0).expect("check").is_empty());
+        assert!(GUARDED.iter().any(|g| g.1 == "decode_instructions"));
+        assert!(GUARDED.iter().any(|g| g.1 == "encode_instructions"));
+        for &(board, metric, path) in GUARDED {
+            let name = format!("{board}.{metric}");
+            // Not expected: an error, not a pass.
+            let mut v = e.clone();
+            v[board].as_object_mut().expect("a board").remove(metric);
+            let f = tempfile_path::write(&v);
+            let err = check(&ok, &f.0).expect_err(&name);
+            assert!(err.to_string().contains(&name), "{name}: {err}");
+            // Not measured: likewise.
+            let mut r = ok.clone();
+            let (last, parents) = path.split_last().expect("a path");
+            let at = parents.iter().fold(&mut r[board], |v, k| &mut v[*k]);
+            at[*last] = Value::Null;
+            let err = check(&r, &file.0).expect_err(&name);
+            assert!(err.to_string().contains(&name), "{name}: {err}");
+            // Over its expectation by more than the tolerance: a regression naming it.
+            let mut r = ok.clone();
+            let want = e[board][metric].as_f64().expect("expected");
+            let at = parents.iter().fold(&mut r[board], |v, k| &mut v[*k]);
+            at[*last] = json!(want * 1.03);
+            let got = check(&r, &file.0).expect("check");
+            assert_eq!(got.len(), 1, "{name}: {got:?}");
+            assert!(got[0].starts_with(&format!("{name}:")), "{name}: {got:?}");
         }
     }
 
