@@ -85,12 +85,24 @@ impl UsartRegisters for Usart1Registers {
     }
 
     fn set_tx_empty_interrupt(&mut self, enabled: bool) {
-        let cr1 = Self::regs().cr1();
-        // Written only when it changes: the interrupt is CR1's only writer after `init`.
-        if cr1.read().txeie().bit_is_set() != enabled {
-            cr1.modify(|_, w| w.txeie().bit(enabled));
-        }
+        // Written whole every run, from what `init` set: one bus write, where reading it to
+        // compare or modify costs one or two reads more on every run (the interrupt's cost is
+        // in the control task's cycle bound). The interrupt is CR1's only writer after
+        // `init`; writing UE, TE, RE and RXNEIE as they are changes nothing (TE sends an
+        // idle frame only on a 0-to-1 change).
+        Self::regs().cr1().write(|w| cr1(w, enabled));
     }
+}
+
+/// CR1 as the link runs it: the USART, its transmitter, its receiver and the receive
+/// interrupt on (8N1: the other bits at their reset values), the TXE interrupt as asked.
+/// [`init`] and the interrupt both write it whole.
+fn cr1(w: &mut pac::usart1::cr1::W, tx_empty_interrupt: bool) -> &mut pac::usart1::cr1::W {
+    w.ue().set_bit();
+    w.te().set_bit();
+    w.re().set_bit();
+    w.rxneie().set_bit();
+    w.txeie().bit(tx_empty_interrupt)
 }
 
 /// The link: reads drain the receive queue, [`SerialLink::transmit`] fills the transmit
@@ -111,12 +123,7 @@ pub fn init(usart: USART1, brr: Option<u16>) -> SerialLink {
     }
     usart.cr2().reset();
     usart.cr3().reset();
-    usart.cr1().write(|w| {
-        w.ue().set_bit();
-        w.te().set_bit();
-        w.re().set_bit();
-        w.rxneie().set_bit()
-    });
+    usart.cr1().write(|w| cr1(w, false));
     // The peripheral token goes out of scope here: from now on the interrupt owns the
     // registers.
     // Note(unsafe): unmasking may break a critical section that relies on this interrupt

@@ -3,7 +3,8 @@
 //!
 //! Place in the data flow: [`crate::wcet`] asks [`cost`] for every instruction of the
 //! machine code it walks and adds the costs along the longest path; the per-edge costs (branch
-//! refill, flash line fetches, the FPU's result latency) come from [`Model`].
+//! refill, flash line fetches, the FPU's result latency) come from [`Model`], and each load's
+//! and store's memory cost from [`data_cycles`] for the region `memory.rs` places it in.
 //!
 //! Sources (the numbers are in the table below, each with its row):
 //! - ARM Cortex-M4 Technical Reference Manual (r0p1), "Processor instruction timings" (the
@@ -18,10 +19,21 @@
 //! - STM32F405 reference manual (RM0090), "Relation between CPU clock frequency and flash
 //!   memory read time": 5 wait states at 168 MHz and 2.7..3.6 V ([`WAIT_STATES`]); a flash
 //!   read delivers 128 bits.
+//! - RM0090, "Memory and bus architecture": the core's S-bus reaches SRAM1, SRAM2 and the
+//!   peripherals through the bus matrix, its D-bus the flash's data and literals and the CCM
+//!   RAM; the embedded SRAM is read and written at CPU speed with 0 wait states; APB1 and APB2
+//!   hang off AHB1 through AHB/APB bridges, clocked on the `f405` board at 42 and 84 MHz (the
+//!   core at 168). The manual gives no bridge latency in cycles: an APB transfer takes at
+//!   least two bus clock cycles (the AMBA APB protocol's setup and access phases), and the
+//!   model adds one more for the bridge to meet the slower clock's edge: 3 bus cycles,
+//!   [`APB2_ACCESS`] = 6 and [`APB1_ACCESS`] = 12 core cycles a transfer, on top of the load's
+//!   or store's own cycles. No other bus master runs (the firmware uses no DMA), so the bus
+//!   matrix never makes the core wait for another master.
 //!
 //! Invariants: every mnemonic has a cost or is an error naming it ([`cost`]: never silently
 //! 1); conditional suffixes, the `s` flag suffix and the `.n`/`.w` width never change a cost;
-//! every choice within a range the manual gives is its upper end.
+//! every choice within a range the manual gives is its upper end; a data access the analysis
+//! cannot place is charged the default ([`data_cycles`]: a load as a flash read that misses).
 
 /// Flash wait states of the STM32F405 at 168 MHz (RM0090: 5 WS for 150 < HCLK <= 168 MHz at
 /// 2.7..3.6 V): a flash read that misses the ART accelerator takes 1 + 5 cycles.
@@ -32,9 +44,19 @@ pub const CORE_HZ: u64 = 168_000_000;
 pub const REFILL: u64 = 3;
 /// Bytes of one flash line (a flash read and an ART cache line: 128 bits).
 pub const FLASH_LINE: u64 = 16;
-/// B of `dsb`/`dmb`: the outstanding write to complete, taken as a peripheral write on the
-/// slower APB1 (42 MHz: 4 core cycles a bus cycle, two bus cycles).
-const BARRIER_DRAIN: u64 = 8;
+/// A transfer to an APB2 peripheral (84 MHz, half the core clock): 3 bus cycles (two of the
+/// APB protocol, one to meet the bus clock's edge), in core cycles.
+pub const APB2_ACCESS: u64 = 3 * 2;
+/// A transfer to an APB1 peripheral (42 MHz, a quarter of the core clock): 3 bus cycles, in
+/// core cycles. Also charged for the other peripherals (AHB1, AHB2, the core's private
+/// peripheral bus), which the model does not time apart.
+pub const APB1_ACCESS: u64 = 3 * 4;
+/// B of `dsb`/`dmb`: the outstanding write to complete. A store to a peripheral is charged
+/// its bus's whole latency where it is made ([`data_cycles`]), as if the core waited for it
+/// there, so what a barrier can still wait for is a write to SRAM (or to an address the
+/// analysis cannot place, taken as SRAM): an AHB write of zero wait states through the bus
+/// matrix, its address and data phases, 2 cycles.
+pub const BARRIER_DRAIN: u64 = 2;
 
 /// What the model assumes of the memory system.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,7 +77,10 @@ impl Model {
     pub const ALL_HIT: Self = Self { flash_wait: 0 };
 }
 
-/// The cost of one instruction, before the edges (refill, fetch) it leaves by.
+use crate::memory::Region;
+
+/// The cost of one instruction, before the edges (refill, fetch) it leaves by and the memory
+/// its data access reaches ([`data_cycles`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Cost {
     /// Cycles at zero wait states when it does not branch (a taken branch adds
@@ -64,11 +89,56 @@ pub struct Cost {
     /// Cycles added when it branches (the refill P; 0 for instructions that never branch or
     /// whose `cycles` already include it: calls, returns, table branches).
     pub taken: u64,
-    /// Flash lines a data access may read (a load not from the stack: a literal, a constant
-    /// table, or anything the analysis cannot place in SRAM).
-    pub flash_lines: u64,
+    /// Its data access (a load, a store, a table branch's read), if any.
+    pub access: Option<Access>,
     /// The FPU register a data-processing FPU instruction writes (for [`fp_stall`]).
     pub fp_result: Option<String>,
+}
+
+/// A data access: what its memory costs depends on where it goes ([`data_cycles`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Access {
+    /// A store (else a load).
+    pub store: bool,
+    /// Bytes moved.
+    pub bytes: u64,
+    /// Bus transfers (32-bit words; one for a byte or a halfword).
+    pub transfers: u64,
+}
+
+/// Cycles a data access adds to its instruction's for the memory `region` it reaches:
+/// nothing for the stack, SRAM and the CCM RAM (0 wait states); a peripheral its bus's
+/// latency per transfer ([`APB2_ACCESS`], [`APB1_ACCESS`]), a load or a store; a load from
+/// flash the wait states of every line it may touch; a load the analysis cannot place the same
+/// as from flash (the dearest memory a load through a pointer reaches in this firmware: it
+/// reaches peripherals only through their constant register addresses, which `memory.rs`
+/// places); a store it cannot place nothing, as a store to SRAM (the only memory the
+/// firmware writes through pointers). A store to flash is an error ([`DataError`]):
+/// programming has no bounded time.
+pub fn data_cycles(model: Model, access: &Access, region: Region) -> Result<u64, DataError> {
+    Ok(match (region, access.store) {
+        (Region::Stack | Region::Sram | Region::Ccm, _) => 0,
+        (Region::Apb2, _) => access.transfers * APB2_ACCESS,
+        (Region::Apb1 | Region::Peripheral, _) => access.transfers * APB1_ACCESS,
+        (Region::Flash, true) => return Err(DataError::FlashStore),
+        (Region::Unknown, true) => 0,
+        (Region::Flash | Region::Unknown, false) => lines_touched(access.bytes) * model.flash_wait,
+    })
+}
+
+/// A data access the model cannot time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DataError {
+    /// A store to a flash address: programming, whose time is the flash's.
+    FlashStore,
+}
+
+impl std::fmt::Display for DataError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::FlashStore => write!(f, "a store to flash (programming) has no bounded time"),
+        }
+    }
 }
 
 /// Why a mnemonic has no bound.
@@ -309,17 +379,27 @@ fn list_words(operands: &str) -> u64 {
         .sum()
 }
 
-/// The base register of a load (`[rN, ...]`, or the first operand of a load multiple), or
-/// `sp` for `pop`/`vpop`.
-fn base_register<'a>(base: &str, operands: &'a str) -> &'a str {
-    if base == "pop" || base == "vpop" {
-        return "sp";
+/// A load or store of `bytes`: one bus transfer per word, at least one.
+fn access(store: bool, bytes: u64) -> Option<Access> {
+    Some(Access {
+        store,
+        bytes,
+        transfers: bytes.div_ceil(4).max(1),
+    })
+}
+
+/// Bytes a single store moves (`strb` 1, `strh` 2, `strd` 8, else 4; a doubleword `vstr`
+/// is found by the caller).
+fn store_bytes(base: &str) -> u64 {
+    if base.starts_with("strb") || base == "strexb" {
+        1
+    } else if base.starts_with("strh") || base == "strexh" {
+        2
+    } else if base == "strd" {
+        8
+    } else {
+        4
     }
-    let within = operands.split('[').nth(1).unwrap_or(operands);
-    within
-        .split([',', ']', '!', ' '])
-        .find(|t| !t.is_empty())
-        .unwrap_or("")
 }
 
 /// Flash lines an aligned read of `bytes` may touch: 1 for a word or less, 1 + ceil((bytes -
@@ -345,20 +425,19 @@ fn names_pc(operands: &str) -> bool {
 }
 
 /// The cost of one instruction (edges aside): its cycles, the refill it adds when it
-/// branches, the flash lines a load may read. An unknown mnemonic is an error naming it.
+/// branches, its data access. An unknown mnemonic is an error naming it.
 pub fn cost(mnemonic: &str, operands: &str) -> Result<Cost, CostError> {
     let (base, k) = row(mnemonic).ok_or_else(|| CostError::Unknown(mnemonic.to_string()))?;
     let plain = |cycles| Cost {
         cycles,
         taken: 0,
-        flash_lines: 0,
+        access: None,
         fp_result: None,
     };
     Ok(match k {
         Kind::Fixed { cycles, .. } => plain(cycles),
         Kind::It => plain(1),
         Kind::Load { cycles, bytes } => {
-            let base_reg = base_register(base, operands);
             // A doubleword FPU load (`vldr d0, ...`) moves two words: 1 + N = 3.
             let (cycles, bytes) = if double_fp(base, operands) {
                 (3, 8)
@@ -370,31 +449,44 @@ pub fn cost(mnemonic: &str, operands: &str) -> Result<Cost, CostError> {
             if operands.trim_start().starts_with("pc") {
                 c.cycles += REFILL;
             }
-            if base_reg != "sp" {
-                c.flash_lines = lines_touched(bytes);
-            }
+            c.access = access(false, bytes);
             c
         }
-        Kind::Store { cycles } => plain(if double_fp(base, operands) { 3 } else { cycles }),
+        Kind::Store { cycles } => {
+            let (cycles, bytes) = if double_fp(base, operands) {
+                (3, 8)
+            } else {
+                (cycles, store_bytes(base))
+            };
+            Cost {
+                access: access(true, bytes),
+                ..plain(cycles)
+            }
+        }
         Kind::LoadMultiple => {
             let n = list_words(operands);
             let mut c = plain(1 + n);
             if names_pc(operands.split('{').nth(1).unwrap_or("")) {
                 c.cycles += REFILL;
             }
-            if base_register(base, operands) != "sp" {
-                c.flash_lines = lines_touched(4 * n);
-            }
+            c.access = access(false, 4 * n);
             c
         }
-        Kind::StoreMultiple => plain(1 + list_words(operands)),
+        Kind::StoreMultiple => {
+            let n = list_words(operands);
+            Cost {
+                access: access(true, 4 * n),
+                ..plain(1 + n)
+            }
+        }
         Kind::Branch => Cost {
             taken: REFILL,
             ..plain(1)
         },
         Kind::AlwaysBranch => plain(1 + REFILL),
+        // The table's entry, read from the code: a byte or a halfword of flash.
         Kind::TableBranch => Cost {
-            flash_lines: 1,
+            access: access(false, if base == "tbh" { 2 } else { 1 }),
             ..plain(2 + REFILL)
         },
         Kind::Vmov => {
@@ -515,18 +607,34 @@ mod tests {
         assert_eq!(c("udiv", "r0, r1, r2").cycles, 12);
         assert_eq!(c("mla", "r0, r1, r2, r3").cycles, 2);
         assert_eq!(c("umull", "r0, r1, r2, r3").cycles, 1);
-        // Loads: from the stack no flash; elsewhere one line (LDRD: two, it may straddle).
+        // Loads and stores: 2 cycles, their access's bytes and bus transfers.
         let l = c("ldr", "r0, [sp, #4]");
-        assert_eq!((l.cycles, l.flash_lines), (2, 0));
-        assert_eq!(c("ldr.w", "r0, [r1, #4]").flash_lines, 1);
-        assert_eq!(c("ldr", "r0, [pc, #8]").flash_lines, 1);
-        assert_eq!(c("ldrd", "r0, r1, [r2]").flash_lines, 2);
+        assert_eq!(l.cycles, 2);
+        let load = |bytes, transfers| {
+            Some(Access {
+                store: false,
+                bytes,
+                transfers,
+            })
+        };
+        assert_eq!(c("ldr.w", "r0, [r1, #4]").access, load(4, 1));
+        assert_eq!(c("ldrb", "r0, [r1, #4]").access, load(1, 1));
+        assert_eq!(c("ldrd", "r0, r1, [r2]").access, load(8, 2));
+        assert_eq!(
+            c("strh.w", "r0, [r1]").access,
+            Some(Access {
+                store: true,
+                bytes: 2,
+                transfers: 1
+            })
+        );
+        assert_eq!(c("tbh", "[pc, r1, lsl #1]").access, load(2, 1));
+        assert_eq!(c("cmp", "r0, #1").access, None);
         // 1 + N, + P when the PC is popped; d registers are two words.
         assert_eq!(c("push", "{r4, r5, r7, lr}").cycles, 5);
         assert_eq!(c("pop", "{r4, r5, r7, pc}").cycles, 5 + REFILL);
         assert_eq!(c("vpush", "{d8-d15}").cycles, 17);
-        assert_eq!(c("ldmia.w", "r0, {r1, r2, r3}").flash_lines, 2);
-        assert_eq!(c("ldmia.w", "sp!, {r8, r9}").flash_lines, 0);
+        assert_eq!(c("ldmia.w", "r0, {r1, r2, r3}").access, load(12, 3));
         // Branches.
         let b = c("bne.n", "8000100");
         assert_eq!((b.cycles, b.taken), (1, REFILL));
@@ -538,11 +646,54 @@ mod tests {
         assert_eq!(c("vfma.f32", "s0, s1, s2").cycles, 3);
         assert_eq!(c("vmov", "r0, s1").cycles, 2);
         assert_eq!(c("vmov.f32", "s0, #1.0").cycles, 1);
-        assert_eq!(c("vldr", "s0, [r0, #8]").flash_lines, 1);
-        // Doublewords: two words, 1 + N; the literal may straddle two lines.
+        assert_eq!(c("vldr", "s0, [r0, #8]").access, load(4, 1));
+        // Doublewords: two words, 1 + N.
         let d = c("vldr", "d0, [pc, #932]");
-        assert_eq!((d.cycles, d.flash_lines), (3, 2));
+        assert_eq!((d.cycles, d.access), (3, load(8, 2)));
         assert_eq!(c("vstr", "d8, [sp, #16]").cycles, 3);
+    }
+
+    #[test]
+    fn each_region_charges_its_memory() {
+        let word = |store| Access {
+            store,
+            bytes: 4,
+            transfers: 1,
+        };
+        let w = WAIT_STATES;
+        let d = |a: Access, r| data_cycles(Model::ALL_MISS, &a, r);
+        // SRAM, the stack and the CCM RAM: no wait state, loads and stores.
+        for r in [Region::Sram, Region::Stack, Region::Ccm] {
+            assert_eq!(d(word(false), r), Ok(0), "{r:?}");
+            assert_eq!(d(word(true), r), Ok(0), "{r:?}");
+        }
+        // Peripherals: the bus's latency per transfer, loads and stores alike.
+        assert_eq!(d(word(false), Region::Apb2), Ok(6));
+        assert_eq!(d(word(true), Region::Apb2), Ok(6));
+        assert_eq!(d(word(false), Region::Apb1), Ok(12));
+        assert_eq!(d(word(true), Region::Peripheral), Ok(12));
+        let double = Access {
+            store: false,
+            bytes: 8,
+            transfers: 2,
+        };
+        assert_eq!(d(double, Region::Apb2), Ok(12));
+        // Flash and the unplaced: a load the lines it may touch (a doubleword may straddle
+        // two); an unplaced store nothing; a store to flash no bound.
+        assert_eq!(d(word(false), Region::Flash), Ok(w));
+        assert_eq!(d(word(false), Region::Unknown), Ok(w));
+        assert_eq!(d(double, Region::Unknown), Ok(2 * w));
+        assert_eq!(d(word(true), Region::Unknown), Ok(0));
+        assert_eq!(d(word(true), Region::Flash), Err(DataError::FlashStore));
+        // At zero wait states the flash is free, the peripherals are not.
+        assert_eq!(
+            data_cycles(Model::ALL_HIT, &word(false), Region::Unknown),
+            Ok(0)
+        );
+        assert_eq!(
+            data_cycles(Model::ALL_HIT, &word(false), Region::Apb1),
+            Ok(12)
+        );
     }
 
     #[test]

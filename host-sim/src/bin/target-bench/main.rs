@@ -65,6 +65,7 @@
 
 mod cycles;
 mod elf;
+mod memory;
 mod paths;
 mod task;
 mod wcet;
@@ -506,6 +507,79 @@ fn f405_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     }
 }
 
+/// The hard budgets the expectations file must hold (`BOARD.METRIC`): flash and static RAM on
+/// both boards, the control path's stack measured (`qemu`) and bounded (both).
+const BUDGETS: [&str; 7] = [
+    "qemu.flash_bytes",
+    "f405.flash_bytes",
+    "qemu.ram_bytes",
+    "f405.ram_bytes",
+    "qemu.stack_bytes",
+    "qemu.stack_bytes_bound",
+    "f405.stack_bytes_bound",
+];
+
+/// The figures the gate guards against their expectations (`BOARD`, `METRIC`, the path to
+/// the figure in the report): each must be in both the expectations file and the report
+/// (either missing is an error, not a pass) and must not grow past its expectation plus the
+/// tolerance.
+const GUARDED: &[(&str, &str, &[&str])] = &[
+    (
+        "qemu",
+        "step_instructions_max",
+        &["step_instructions", "max"],
+    ),
+    // The static bound must exist (a loop, recursion or an indirect call in the step's
+    // code makes it `null`, and the check fails) and must not grow.
+    (
+        "qemu",
+        "step_instructions_bound",
+        &["step_instructions_bound"],
+    ),
+    (
+        "f405",
+        "step_instructions_bound",
+        &["step_instructions_bound"],
+    ),
+    // The codec's worst case over the workloads: a measurement frame's decode (whole, once
+    // its end is queued) and a command frame's encode, each repeatable (the run replays one
+    // workload twice and fails unless every figure is identical).
+    ("qemu", "decode_instructions", &["decode_instructions"]),
+    ("qemu", "encode_instructions", &["encode_instructions"]),
+    ("qemu", "stack_bytes", &["stack_bytes"]),
+    // The step's static stack (its frame and its deepest callee's: the f405 board's only
+    // stack figure), which must exist like the other static bounds.
+    ("qemu", "stack_bytes_bound", &["stack_bytes_bound"]),
+    ("f405", "stack_bytes_bound", &["stack_bytes_bound"]),
+    ("qemu", "flash_bytes", &["flash_bytes"]),
+    ("f405", "flash_bytes", &["flash_bytes"]),
+    // Static RAM (`.data`, `.bss`, `.uninit`).
+    ("qemu", "ram_bytes", &["ram_bytes"]),
+    ("f405", "ram_bytes", &["ram_bytes"]),
+    // The cycle bounds (wcet.rs, task.rs): the step's and the whole control task's, in
+    // cycles and microseconds at 168 MHz, and the task's instructions; each must exist
+    // (an undeclared or stale loop, an unknown instruction or an unbounded call makes it
+    // `null`, and the check fails).
+    ("qemu", "step_cycles_bound", &["step_cycles_bound"]),
+    ("f405", "step_cycles_bound", &["step_cycles_bound"]),
+    ("qemu", "step_us_bound", &["step_us_bound"]),
+    ("f405", "step_us_bound", &["step_us_bound"]),
+    (
+        "qemu",
+        "cycle_instructions_bound",
+        &["cycle_instructions_bound"],
+    ),
+    (
+        "f405",
+        "cycle_instructions_bound",
+        &["cycle_instructions_bound"],
+    ),
+    ("qemu", "cycle_cycles_bound", &["cycle_cycles_bound"]),
+    ("f405", "cycle_cycles_bound", &["cycle_cycles_bound"]),
+    ("qemu", "cycle_us_bound", &["cycle_us_bound"]),
+    ("f405", "cycle_us_bound", &["cycle_us_bound"]),
+];
+
 /// Compares `report` with the expectations file; the regressions (empty: none).
 fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
     let text = std::fs::read_to_string(expected_path)
@@ -515,54 +589,7 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
         .as_f64()
         .ok_or("expectations: tolerance_percent missing")?;
     let mut regressions = Vec::new();
-    for (board, metric, path) in [
-        (
-            "qemu",
-            "step_instructions_max",
-            &["step_instructions", "max"][..],
-        ),
-        // The static bound must exist (a loop, recursion or an indirect call in the step's
-        // code makes it `null`, and the check fails) and must not grow.
-        (
-            "qemu",
-            "step_instructions_bound",
-            &["step_instructions_bound"][..],
-        ),
-        (
-            "f405",
-            "step_instructions_bound",
-            &["step_instructions_bound"][..],
-        ),
-        // The codec's worst case over the workloads (repeatable since the decode is timed
-        // byte by byte with interrupts masked).
-        ("qemu", "decode_instructions", &["decode_instructions"][..]),
-        ("qemu", "encode_instructions", &["encode_instructions"][..]),
-        ("qemu", "stack_bytes", &["stack_bytes"][..]),
-        ("qemu", "flash_bytes", &["flash_bytes"][..]),
-        ("f405", "flash_bytes", &["flash_bytes"][..]),
-        // The cycle bounds (wcet.rs, task.rs): the step's and the whole control task's, in
-        // cycles and microseconds at 168 MHz, and the task's instructions; each must exist
-        // (an undeclared or stale loop, an unknown instruction or an unbounded call makes it
-        // `null`, and the check fails).
-        ("qemu", "step_cycles_bound", &["step_cycles_bound"][..]),
-        ("f405", "step_cycles_bound", &["step_cycles_bound"][..]),
-        ("qemu", "step_us_bound", &["step_us_bound"][..]),
-        ("f405", "step_us_bound", &["step_us_bound"][..]),
-        (
-            "qemu",
-            "cycle_instructions_bound",
-            &["cycle_instructions_bound"][..],
-        ),
-        (
-            "f405",
-            "cycle_instructions_bound",
-            &["cycle_instructions_bound"][..],
-        ),
-        ("qemu", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
-        ("f405", "cycle_cycles_bound", &["cycle_cycles_bound"][..]),
-        ("qemu", "cycle_us_bound", &["cycle_us_bound"][..]),
-        ("f405", "cycle_us_bound", &["cycle_us_bound"][..]),
-    ] {
+    for &(board, metric, path) in GUARDED {
         let want = expected[board][metric]
             .as_f64()
             .ok_or_else(|| format!("expectations: {board}.{metric} missing"))?;
@@ -587,26 +614,34 @@ fn check(report: &Value, expected_path: &Path) -> Result<Vec<String>, Error> {
         );
     }
     // Hard budgets (the targets set when the firmware was first benchmarked): a figure over
-    // its budget fails whatever its expectation says, so raising an expectation cannot hide it.
-    if let Some(budgets) = expected["budgets"].as_object() {
-        for (key, budget) in budgets {
-            let budget = budget
-                .as_f64()
-                .ok_or_else(|| format!("expectations: budgets.{key} is not a number"))?;
-            let (board, metric) = key
-                .split_once('.')
-                .ok_or_else(|| format!("expectations: budgets.{key}: want BOARD.METRIC"))?;
-            let got = report[board][metric]
-                .as_f64()
-                .ok_or_else(|| format!("measured: {key} missing"))?;
-            let verdict = if got > budget {
-                regressions.push(format!("{key}: {got} > budget {budget}"));
-                "OVER BUDGET"
-            } else {
-                "ok"
-            };
-            eprintln!("budget {key}: measured {got}, budget {budget}: {verdict}");
+    // its budget fails whatever its expectation says, so raising an expectation cannot hide
+    // it. Every budget the gate stands for must be in the file: a file without them would
+    // pass silently.
+    let budgets = expected["budgets"]
+        .as_object()
+        .ok_or("expectations: the `budgets` object is missing")?;
+    for key in BUDGETS {
+        if !budgets.contains_key(key) {
+            return Err(format!("expectations: budgets.{key} missing").into());
         }
+    }
+    for (key, budget) in budgets {
+        let budget = budget
+            .as_f64()
+            .ok_or_else(|| format!("expectations: budgets.{key} is not a number"))?;
+        let (board, metric) = key
+            .split_once('.')
+            .ok_or_else(|| format!("expectations: budgets.{key}: want BOARD.METRIC"))?;
+        let got = report[board][metric]
+            .as_f64()
+            .ok_or_else(|| format!("measured: {key} missing"))?;
+        let verdict = if got > budget {
+            regressions.push(format!("{key}: {got} > budget {budget}"));
+            "OVER BUDGET"
+        } else {
+            "ok"
+        };
+        eprintln!("budget {key}: measured {got}, budget {budget}: {verdict}");
     }
     Ok(regressions)
 }
@@ -915,6 +950,7 @@ mod tests {
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
                 "stack_bytes": 276,
+                "stack_bytes_bound": 300,
                 "flash_bytes": flash,
                 "ram_bytes": 704,
             })
@@ -925,8 +961,9 @@ mod tests {
         })
     }
 
-    fn expectations(flash_budget: u64) -> tempfile_path::TempPath {
-        tempfile_path::write(&json!({
+    /// The expectations file the report above meets, with `flash_budget` on both boards.
+    fn expectations_value(flash_budget: u64) -> Value {
+        json!({
             "tolerance_percent": 2,
             "qemu": {
                 "step_instructions_max": 800,
@@ -934,7 +971,9 @@ mod tests {
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
                 "stack_bytes": 276,
+                "stack_bytes_bound": 300,
                 "flash_bytes": 60000,
+                "ram_bytes": 704,
                 "step_cycles_bound": 5000,
                 "step_us_bound": 29.8,
                 "cycle_instructions_bound": 20000,
@@ -943,15 +982,29 @@ mod tests {
             },
             "f405": {
                 "step_instructions_bound": 1100,
+                "stack_bytes_bound": 300,
                 "flash_bytes": 60000,
+                "ram_bytes": 704,
                 "step_cycles_bound": 5000,
                 "step_us_bound": 29.8,
                 "cycle_instructions_bound": 20000,
                 "cycle_cycles_bound": 80000,
                 "cycle_us_bound": 476.2,
             },
-            "budgets": {"qemu.flash_bytes": flash_budget, "f405.flash_bytes": flash_budget},
-        }))
+            "budgets": {
+                "qemu.flash_bytes": flash_budget,
+                "f405.flash_bytes": flash_budget,
+                "qemu.ram_bytes": 16384,
+                "f405.ram_bytes": 16384,
+                "qemu.stack_bytes": 2048,
+                "qemu.stack_bytes_bound": 2048,
+                "f405.stack_bytes_bound": 2048,
+            },
+        })
+    }
+
+    fn expectations(flash_budget: u64) -> tempfile_path::TempPath {
+        tempfile_path::write(&expectations_value(flash_budget))
     }
 
     /// A file in the system's temporary directory, removed when dropped.
@@ -1034,6 +1087,92 @@ mod tests {
         let got = check(&r, &e.0).expect("check");
         assert_eq!(got.len(), 1, "{got:?}");
         assert!(got[0].starts_with("f405.cycle_cycles_bound"), "{got:?}");
+    }
+
+    #[test]
+    fn static_ram_and_the_static_stack_are_guarded_on_both_boards() {
+        let e = expectations(65536);
+        // 2 % over 704 B is 718.08; over 300 B, 306.
+        for board in ["qemu", "f405"] {
+            let mut r = report(800, Some(1100), 60000);
+            r[board]["ram_bytes"] = json!(718);
+            r[board]["stack_bytes_bound"] = json!(306);
+            assert!(check(&r, &e.0).expect("check").is_empty(), "{board}");
+            r[board]["ram_bytes"] = json!(719);
+            r[board]["stack_bytes_bound"] = json!(307);
+            let got = check(&r, &e.0).expect("check");
+            assert_eq!(got.len(), 2, "{got:?}");
+            assert!(
+                got[0].starts_with(&format!("{board}.stack_bytes_bound")),
+                "{got:?}"
+            );
+            assert!(got[1].starts_with(&format!("{board}.ram_bytes")), "{got:?}");
+            // The static stack must exist, like the other static bounds.
+            r[board]["stack_bytes_bound"] = Value::Null;
+            let err = check(&r, &e.0).expect_err("no static stack");
+            assert!(err.to_string().contains("stack_bytes_bound"), "{err}");
+        }
+        // Static RAM over its 16 KiB budget fails even when the expectation was raised.
+        let mut high = expectations_value(65536);
+        high["f405"]["ram_bytes"] = json!(20000);
+        let high = tempfile_path::write(&high);
+        let mut r = report(800, Some(1100), 60000);
+        r["f405"]["ram_bytes"] = json!(16385);
+        let got = check(&r, &high.0).expect("check");
+        assert_eq!(got, ["f405.ram_bytes: 16385 > budget 16384"]);
+    }
+
+    #[test]
+    fn missing_budgets_are_an_error_not_a_pass() {
+        let r = report(800, Some(1100), 60000);
+        let mut none = expectations_value(65536);
+        none.as_object_mut().expect("an object").remove("budgets");
+        let none = tempfile_path::write(&none);
+        let err = check(&r, &none.0).expect_err("no budgets");
+        assert!(err.to_string().contains("budgets"), "{err}");
+        for key in BUDGETS {
+            let mut v = expectations_value(65536);
+            v["budgets"].as_object_mut().expect("budgets").remove(key);
+            let f = tempfile_path::write(&v);
+            let err = check(&r, &f.0).expect_err(key);
+            assert!(err.to_string().contains(key), "{key}: {err}");
+        }
+    }
+
+    /// Every guarded figure, one at a time: missing from the expectations file, missing
+    /// from the report, or grown past its tolerance, the check fails naming it.
+    #[test]
+    fn every_guarded_figure_fails_the_check_when_missing_or_grown() {
+        let e = expectations_value(1 << 20);
+        let ok = report(800, Some(1100), 60000);
+        let file = tempfile_path::write(&e);
+        assert!(check(&ok, &file.0).expect("check").is_empty());
+        assert!(GUARDED.iter().any(|g| g.1 == "decode_instructions"));
+        assert!(GUARDED.iter().any(|g| g.1 == "encode_instructions"));
+        for &(board, metric, path) in GUARDED {
+            let name = format!("{board}.{metric}");
+            // Not expected: an error, not a pass.
+            let mut v = e.clone();
+            v[board].as_object_mut().expect("a board").remove(metric);
+            let f = tempfile_path::write(&v);
+            let err = check(&ok, &f.0).expect_err(&name);
+            assert!(err.to_string().contains(&name), "{name}: {err}");
+            // Not measured: likewise.
+            let mut r = ok.clone();
+            let (last, parents) = path.split_last().expect("a path");
+            let at = parents.iter().fold(&mut r[board], |v, k| &mut v[*k]);
+            at[*last] = Value::Null;
+            let err = check(&r, &file.0).expect_err(&name);
+            assert!(err.to_string().contains(&name), "{name}: {err}");
+            // Over its expectation by more than the tolerance: a regression naming it.
+            let mut r = ok.clone();
+            let want = e[board][metric].as_f64().expect("expected");
+            let at = parents.iter().fold(&mut r[board], |v, k| &mut v[*k]);
+            at[*last] = json!(want * 1.03);
+            let got = check(&r, &file.0).expect("check");
+            assert_eq!(got.len(), 1, "{name}: {got:?}");
+            assert!(got[0].starts_with(&format!("{name}:")), "{name}: {got:?}");
+        }
     }
 
     #[test]

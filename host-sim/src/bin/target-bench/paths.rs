@@ -25,6 +25,7 @@ use serde::Serialize;
 use serde_json::Value;
 
 use crate::cycles::{self, Model, Pass};
+use crate::memory::Region;
 use crate::task;
 use crate::wcet::{Disassembly, Metric, Rules};
 
@@ -78,6 +79,8 @@ struct Costed {
     operands: String,
     cost: cycles::Cost,
     arithmetic: bool,
+    /// Where its data access goes (`memory.rs`, as the bound places it).
+    region: Region,
 }
 
 /// One step call's figures: instructions, cycles (every miss), cycles (zero wait states),
@@ -123,6 +126,7 @@ impl Meter<'_> {
                 .ok_or_else(|| format!("executed {addr:#x}: not an instruction of the ELF"))?;
             let cost =
                 cycles::cost(mnemonic, operands).map_err(|e| format!("at {addr:#x}: {e}"))?;
+            let region = self.dis.region_at(addr)?.unwrap_or(Region::Unknown);
             self.known.insert(
                 addr,
                 Costed {
@@ -130,6 +134,7 @@ impl Meter<'_> {
                     operands: operands.to_string(),
                     cost,
                     arithmetic: is_arithmetic(mnemonic),
+                    region,
                 },
             );
         }
@@ -149,12 +154,11 @@ impl Meter<'_> {
 
     /// The model's cycles of `stream` (executed addresses, in order) for `model`.
     fn cycles(&mut self, stream: &[u64], model: Model) -> Result<u64, String> {
-        let w = model.flash_wait;
         let mut total = 0;
         let mut prev: Option<(u64, u64, cycles::Cost)> = None;
         for &addr in stream {
             let c = self.costed(addr)?;
-            let (size, here) = (c.size, c.cost.clone());
+            let (size, here, region) = (c.size, c.cost.clone(), c.region);
             let operands = c.operands.clone();
             total += match &prev {
                 None => cycles::fetch(model, addr, size),
@@ -172,7 +176,12 @@ impl Meter<'_> {
                     cycles::transition(model, (*pa, *ps, pc), (addr, size, &operands), pass)
                 }
             };
-            total += here.cycles + here.flash_lines * w;
+            let data = match &here.access {
+                Some(a) => cycles::data_cycles(model, a, region)
+                    .map_err(|e| format!("at {addr:#x}: {e}"))?,
+                None => 0,
+            };
+            total += here.cycles + data;
             prev = Some((addr, size, here));
         }
         Ok(total)

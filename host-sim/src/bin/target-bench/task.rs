@@ -254,23 +254,15 @@ pub const LOOPS: &[LoopBound] = &[
         source: &["usart1::__cortex_m_rt_USART1", "fetch_add"],
         instructions: 5,
         iterations: 1,
-        reason: "RX_ERRORS.fetch_add (a receive error): as SysTick's, nothing preempts USART1",
+        reason: "rx_errors.fetch_add (a receive error or the queue full, once a run): as SysTick's, nothing preempts USART1",
     },
     LoopBound {
         function: "USART1",
         ordinal: 1,
-        source: &["usart1::__cortex_m_rt_USART1", "fetch_add"],
-        instructions: 5,
+        source: &["serial::SerialQueues", "serial::Reader"],
+        instructions: 12,
         iterations: 1,
-        reason: "RX_ERRORS.fetch_add (the queue full): likewise",
-    },
-    LoopBound {
-        function: "USART1",
-        ordinal: 2,
-        source: &["serial::SerialQueues", "ByteQueue"],
-        instructions: 24,
-        iterations: 2,
-        reason: "the transmit loop, a byte an iteration while the data register is empty: on the MCU a write clears TXE, the register passes its byte to the idle shift register and takes one more, then stays full for a byte time (10 bits), so at most 2; on QEMU a write is immediate and one run empties the queue, but the queue is empty inside the task (the frame queued before it was sent by the run its queuing pended, before the task's first byte could arrive)",
+        reason: "the transmit loop, a byte a pass while the data register is empty, tested at its bottom (the first byte's tests come before it): at most 2 bytes a run, so back to its top at most once. On the MCU a write clears TXE, the register passes its byte to an idle shift register and takes one more, then stays full for a byte time (10 bits, 1,820 cycles), longer than the run (the analysis checks the handler's bound is under a byte time); on QEMU a write is immediate and one run empties the queue, but the queue is empty inside the task (the frame queued before it was sent by the run its queuing pended, before the task's first byte could arrive)",
     },
     // The frame decoder, on the receive queue's chunk that ends the frame.
     LoopBound {
@@ -430,15 +422,17 @@ impl Figures {
     }
 }
 
-/// An interrupt's cost per occurrence and the shortest time between two.
+/// An interrupt's cost per occurrence and how often it can come.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Interrupt {
     /// Cycles per occurrence (entry, handler, exit; flash misses), the bound.
     pub cycles: u64,
     /// The same at zero wait states.
     pub cycles_zero_wait: u64,
-    /// At most one per this many cycles.
+    /// Its sources each come at most once per this many cycles.
     pub period_cycles: u64,
+    /// Its independent sources (each may come once a period, at any phase of the other's).
+    pub per_period: u64,
     /// Occurrences within the task's bound (response-time iteration).
     pub count: u64,
 }
@@ -499,12 +493,18 @@ pub fn assumptions(schedule: Schedule) -> serde_json::Value {
     serde_json::json!({
         "clock": "168 MHz core clock, 5 flash wait states (STM32F405 reference manual, 2.7..3.6 V)",
         "instruction_timings": "Cortex-M4 TRM instruction timings and its FPU's, the upper end of every range (P = 3, UDIV/SDIV 12, MRS/MSR/CPS 2, VMOV with a core register 2, MLA 2), IT folding and load/store pipelining not credited; an FPU result one cycle later for a dependent next instruction (docs/benchmarks.md, the table)",
-        "memory": "every flash access misses the ART accelerator and costs 5 wait states, serialised: each 128-bit line of code the path enters (sequentially or by a branch), each conditional branch's speculative target fetch, each load not from the stack (a literal, a constant table, or data the analysis cannot place in SRAM); safe whatever the ART's caches and prefetch hold. The *_zero_wait figures assume every access hits (no wait states): the instruction timings alone, not a bound at 168 MHz",
+        "memory": format!(
+            "every flash access misses the ART accelerator and costs 5 wait states, serialised: each 128-bit line of code the path enters (sequentially or by a branch), each conditional branch's speculative target fetch, each load from flash (a literal, a constant table) or from an address the analysis cannot place; safe whatever the ART's caches and prefetch hold. Each load's and store's address is tracked through its function (constants built by movw/movt, immediates added, register copies, masked indices, the stack pointer; a call forgets every register): SRAM1/SRAM2, the stack and the CCM RAM cost no wait state (RM0090: the SRAM at CPU speed with 0 wait states, over the bus matrix's S-bus; no other bus master runs, no DMA); an APB2 register {} core cycles a transfer and an APB1 one {} (3 bus cycles at 84 and 42 MHz: the AMBA APB protocol's setup and access, and one to meet the bus clock's edge; RM0090 gives the bridges no latency in cycles), another peripheral as APB1; a store the analysis cannot place costs no wait state (the firmware writes peripherals only through constant register addresses, which it places); a DSB/DMB waits {} more cycles for a pending write (to SRAM: a peripheral store is charged its whole latency where it is made). The *_zero_wait figures assume every flash access hits (no wait states; the peripherals' latency stays): the instruction timings alone, not a bound at 168 MHz",
+            cycles::APB2_ACCESS,
+            cycles::APB1_ACCESS,
+            cycles::BARRIER_DRAIN
+        ),
         "task": task,
         "left_out": "the configuration frames' path (App::configure, config_from_bytes, encode_config_report: another frame kind); the PBVS law (the firmware flies IBVS); libm's argument reduction rem_pio2f (sinf/cosf reach it only beyond 9 pi / 4 rad; the follow-up's are of trim pitches within 0.8 rad); panics (they end the task: safe frame, reset)",
-        "loops": "every loop has a declared iteration bound with its reason, checked against the loop's source and size (target-bench's task.rs, LOOPS and SIZED_LOOPS; listed by --loops); a loop costs (bound + 1) x its dearest iteration; memcpy and memset are costed for the byte count their call passes (traced back to constants), their loops bounded by the bytes each iteration moves",
+        "loops": "every loop has a declared bound with its reason (the passes back to its header per entry), checked against the loop's source and size (target-bench's task.rs, LOOPS and SIZED_LOOPS; listed by --loops); a loop costs its bound x its dearest pass around plus its dearest last pass out of it (for a loop tested at its top, the test); memcpy and memset are costed for the byte count their call passes (traced back to constants), their loops bounded by the bytes each iteration moves",
         "interrupts": format!(
-            "USART1 at most twice per {} cycles (10 bits a byte at 923,077 baud: BRR 91 at 84 MHz for 921,600; a received byte and the transmit register emptying, each at most once a byte time), SysTick once per {} cycles (20 ms), at the same priority (neither preempts the other); each costs its handler's bound, entry {EXCEPTION_ENTRY} and exit {EXCEPTION_EXIT} cycles, two flash accesses (vector, return) and one more iteration of the task's dearest LDREX/STREX retry loop (the exclusive store it can make fail); counted by response-time iteration over the task's own bound, the link assumed saturated",
+            "USART1 from two independent sources, a received byte and the transmit register emptying, each at most once per {} cycles (10 bits a byte at 923,077 baud: BRR 91 at 84 MHz for 921,600), so up to 2 x ceil(R / {}) runs in a window R; its transmit loop sends at most 2 bytes a run (the second write leaves the data register full for a byte time, longer than the handler's bound, which the analysis checks); SysTick once per {} cycles (20 ms); all at the same priority (none preempts another); each costs its handler's bound, entry {EXCEPTION_ENTRY} and exit {EXCEPTION_EXIT} cycles, two flash accesses (vector, return) and one more pass of the task's dearest LDREX/STREX retry loop (the exclusive store it can make fail); counted by response-time iteration over the task's own bound, the link assumed saturated",
+            byte_period_cycles(),
             byte_period_cycles(),
             SYSTICK_PERIOD_CYCLES
         ),
@@ -557,6 +557,7 @@ fn interrupt(
     d: &Disassembly,
     handler: &str,
     period_cycles: u64,
+    per_period: u64,
     task: &Figures,
 ) -> Result<(Interrupt, Bound), String> {
     let (f, b) = figures(d, handler, rules(&[], false))?;
@@ -567,26 +568,28 @@ fn interrupt(
             cycles: f.cycles + overhead + 2 * cycles::WAIT_STATES + task.retry,
             cycles_zero_wait: f.cycles_zero_wait + overhead + task.retry_zero_wait,
             period_cycles,
+            per_period,
             count: 0,
         },
         b,
     ))
 }
 
-/// The task's bound with interrupts: the smallest `r` with `r = task + sum(ceil(r / period)
-/// x cost)` (response-time analysis); `None` if it does not converge below a second.
-fn response(task: u64, interrupts: &[(u64, u64)]) -> Option<(u64, Vec<u64>)> {
+/// The task's bound with interrupts: the smallest `r` with `r = task + sum(sources x
+/// ceil(r / period) x cost)` over the interrupts `(cost, period, sources)` (response-time
+/// analysis); `None` if it does not converge below a second.
+fn response(task: u64, interrupts: &[(u64, u64, u64)]) -> Option<(u64, Vec<u64>)> {
     let mut r = task;
     loop {
         let counts: Vec<u64> = interrupts
             .iter()
-            .map(|&(_, period)| r.div_ceil(period))
+            .map(|&(_, period, sources)| sources * r.div_ceil(period))
             .collect();
         let next = task
             + interrupts
                 .iter()
                 .zip(&counts)
-                .map(|(&(cost, _), &n)| n * cost)
+                .map(|(&(cost, _, _), &n)| n * cost)
                 .sum::<u64>();
         if next == r {
             return Some((r, counts));
@@ -627,26 +630,28 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
         }
     };
     // USART1 runs for a received byte and for the transmit register emptying, each at most
-    // once a byte time, independently: twice a byte time at most.
-    let (mut usart1, bu) = interrupt(d, USART1, byte_period_cycles() / 2, &task)?;
-    let (mut systick, bs) = interrupt(d, SYSTICK, SYSTICK_PERIOD_CYCLES, &task)?;
+    // once a byte time, independently: two sources of one byte time each (in a window of R
+    // cycles up to 2 x ceil(R / byte time) runs; one source of half the period would count
+    // one run too few in a window shorter than half a byte time).
+    let (mut usart1, bu) = interrupt(d, USART1, byte_period_cycles(), 2, &task)?;
+    let (mut systick, bs) = interrupt(d, SYSTICK, SYSTICK_PERIOD_CYCLES, 1, &task)?;
+    // The transmit loop's declared bound (2 bytes a run) holds only while a run is shorter
+    // than the byte time the second byte keeps the data register full.
+    if usart1.cycles >= byte_period_cycles() {
+        return Err(format!(
+            "the USART1 handler's bound ({} cycles) is not under a byte time ({} cycles): its transmit loop's bound of 2 bytes a run (task.rs, LOOPS) assumes it is",
+            usart1.cycles,
+            byte_period_cycles()
+        ));
+    }
     parts.extend([bu, bs]);
-    let (cycles, counts) = response(
-        task.cycles,
-        &[
-            (usart1.cycles, usart1.period_cycles),
-            (systick.cycles, systick.period_cycles),
-        ],
-    )
-    .ok_or("the interrupts' load does not leave the task a bound under a second")?;
-    let (zero_wait, _) = response(
-        task.cycles_zero_wait,
-        &[
-            (usart1.cycles_zero_wait, usart1.period_cycles),
-            (systick.cycles_zero_wait, systick.period_cycles),
-        ],
-    )
-    .ok_or("the interrupts' load does not leave the task a bound under a second")?;
+    let sources = |f: fn(&Interrupt) -> u64| {
+        [usart1, systick].map(|i| (f(&i), i.period_cycles, i.per_period))
+    };
+    let (cycles, counts) = response(task.cycles, &sources(|i| i.cycles))
+        .ok_or("the interrupts' load does not leave the task a bound under a second")?;
+    let (zero_wait, _) = response(task.cycles_zero_wait, &sources(|i| i.cycles_zero_wait))
+        .ok_or("the interrupts' load does not leave the task a bound under a second")?;
     usart1.count = counts[0];
     systick.count = counts[1];
     let byte_exclude: Vec<&str> = lockstep_exclude
@@ -791,8 +796,12 @@ mod tests {
     fn response_time_counts_the_interrupts_that_land_on_the_task() {
         // 1000 cycles of task, an interrupt of 100 every 500: 1000 -> 1200 (2) -> 1300 (3)
         // -> 1300.
-        assert_eq!(response(1000, &[(100, 500)]), Some((1300, vec![3])));
+        assert_eq!(response(1000, &[(100, 500, 1)]), Some((1300, vec![3])));
         // An interrupt that takes its whole period leaves nothing: no bound.
-        assert_eq!(response(1000, &[(500, 500)]), None);
+        assert_eq!(response(1000, &[(500, 500, 1)]), None);
+        // Two independent sources of one period: a short task can meet both, where one
+        // source of half the period would count one.
+        assert_eq!(response(10, &[(5, 1000, 2)]), Some((20, vec![2])));
+        assert_eq!(response(10, &[(5, 500, 1)]), Some((15, vec![1])));
     }
 }

@@ -16,17 +16,22 @@
 //! ([`LoopBound`]: the function, the loop's ordinal among the function's loops by header
 //! address, checked against its source (the inlined functions `addr2line` names for its
 //! instructions) and its size in instructions, so a table gone stale fails naming the loop).
-//! A loop costs (iterations + 1) times its longest iteration (the one more covers a loop tested
-//! at its top, whose header runs once more than its body) plus its dearest exit. Library
+//! A loop with the bound n costs n times its dearest pass around (from its header back to
+//! it) plus its dearest last pass (from its header to an exit, and on from there): the path
+//! through it returns to the header at most n times, then leaves. (It used to cost (n + 1)
+//! times the dearest pass plus the exit: for a loop tested at its top, whose last pass is the
+//! test alone, one whole body too many.) Library
 //! calls whose cost depends on a size ([`SizedCall`]: `memcpy`, `memset`) are analysed for the
 //! size the call site passes, found by following the size register back through every path to
 //! constants; each of their loops iterates at most once per byte.
 //!
 //! Metric: instructions (the unit of QEMU's `-icount`; every instruction of an IT block counts
 //! whether or not its condition holds, as QEMU counts them) or cycles under a memory
-//! [`Model`] (`cycles.rs`: the instruction's cycles, a taken branch's refill, and the flash
-//! wait states of every flash line the path enters, of every conditional branch's speculative
-//! fetch and of every load that may read flash).
+//! [`Model`] (`cycles.rs`: the instruction's cycles, a taken branch's refill, the flash wait
+//! states of every flash line the path enters and of every conditional branch's speculative
+//! fetch, and each load's and store's memory: `memory.rs` tracks the registers' values
+//! through each function and places each access in SRAM, a peripheral bus, flash or nowhere
+//! known, and `cycles.rs` charges it for that).
 //!
 //! What it refuses, as an error naming the function and address: an indirect branch or call,
 //! recursion, a loop without a declared bound (or whose declaration no longer matches), a loop
@@ -40,23 +45,25 @@ use std::cell::RefCell;
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::rc::Rc;
 
 use serde::Serialize;
 
 use crate::cycles::{self, Model};
+use crate::memory::{self, Region};
 
 /// One decoded line of the disassembly.
 #[derive(Debug, Clone)]
-struct Line {
-    addr: u64,
+pub(crate) struct Line {
+    pub(crate) addr: u64,
     /// Bytes, from the next line's address.
-    size: u64,
-    mnemonic: String,
-    operands: String,
+    pub(crate) size: u64,
+    pub(crate) mnemonic: String,
+    pub(crate) operands: String,
 }
 
 impl Line {
-    fn is_data(&self) -> bool {
+    pub(crate) fn is_data(&self) -> bool {
         self.mnemonic.starts_with('.')
     }
 }
@@ -75,6 +82,8 @@ pub struct Disassembly {
     elf: Option<PathBuf>,
     /// Inlined function names at each address, innermost first (from `addr2line`).
     chains: RefCell<HashMap<u64, Vec<String>>>,
+    /// Each function's data access regions, by instruction (`memory.rs`), once found.
+    places: RefCell<HashMap<u64, Rc<Vec<Option<Region>>>>>,
 }
 
 /// What a bound counts.
@@ -99,7 +108,8 @@ pub struct LoopBound {
     /// Instructions in the loop (nested loops included) when the bound was declared: a
     /// change means the code changed, and the bound must be checked again.
     pub instructions: usize,
-    /// At most this many iterations per entry into the loop.
+    /// At most this many passes back to the loop's header per entry into it: for a loop
+    /// tested at its top, its body's runs; for one tested at its bottom, one fewer.
     pub iterations: u64,
     /// Why.
     pub reason: &'static str,
@@ -217,6 +227,9 @@ pub struct Bound {
     /// Some instruction on a path is the FPU's (an interrupt handler's FP context is then
     /// stacked).
     pub uses_fpu: bool,
+    /// The instructions with a data access in the functions walked (each function once,
+    /// reached code only; cycle bounds only), by the region `memory.rs` places them in.
+    pub data_accesses: BTreeMap<String, u64>,
     /// The functions the bound walked (start addresses): the code the path can run.
     #[serde(skip)]
     pub functions: BTreeSet<u64>,
@@ -371,16 +384,16 @@ fn flow(line: &Line, table: impl Fn() -> Vec<u64>) -> Flow {
 use cycles::Pass as Edge;
 
 /// What writing a register amounts to, for the size of a library call.
-enum Write {
+pub(crate) enum Write {
     No,
     Const(u64),
     Copy(String),
     Other,
 }
 
-/// How `line` writes `reg` (the call-size trace: conservative, anything it does not
-/// recognise as a constant or a copy is `Other`).
-fn writes(line: &Line, reg: &str) -> Write {
+/// How `line` writes `reg` (the call-size trace and `memory.rs`: conservative, anything it
+/// does not recognise as a constant or a copy is `Other`).
+pub(crate) fn writes(line: &Line, reg: &str) -> Write {
     let Some((base, conditional)) = cycles::base(&line.mnemonic) else {
         return Write::Other;
     };
@@ -407,7 +420,18 @@ fn writes(line: &Line, reg: &str) -> Write {
     {
         return Write::Other;
     }
-    if line.operands.contains(&format!("{reg}!")) || line.operands.contains(&format!("[{reg}],")) {
+    // Write-back: `ldm r0!, ...`, post-indexed `[r0], #4`, pre-indexed `[r0, #4]!`.
+    let pre_indexed = line.operands.contains("]!")
+        && line
+            .operands
+            .split('[')
+            .nth(1)
+            .and_then(|m| m.split([',', ']']).next())
+            .is_some_and(|b| b.trim() == reg);
+    if line.operands.contains(&format!("{reg}!"))
+        || line.operands.contains(&format!("[{reg}],"))
+        || pre_indexed
+    {
         return Write::Other;
     }
     let no_dest = matches!(
@@ -457,7 +481,7 @@ fn writes(line: &Line, reg: &str) -> Write {
     let two_dests = matches!(
         base,
         "ldrd" | "ldrexd" | "umull" | "smull" | "umlal" | "smlal" | "umaal"
-    ) || (base == "vmov" && ops.len() == 3);
+    ) || (base == "vmov" && ops.len() >= 3);
     let dest = !no_dest && ops.first().is_some_and(|o| *o == reg);
     let second = two_dests && ops.get(1).is_some_and(|o| *o == reg);
     if second || (dest && two_dests) {
@@ -613,7 +637,70 @@ impl Disassembly {
             names,
             elf: None,
             chains: RefCell::new(HashMap::new()),
+            places: RefCell::new(HashMap::new()),
         }
+    }
+
+    /// The start and name of the first function (tests of other modules).
+    #[cfg(test)]
+    pub fn first_function(&self) -> Option<(u64, &str)> {
+        self.functions
+            .iter()
+            .next()
+            .map(|(a, f)| (*a, f.name.as_str()))
+    }
+
+    /// The lines of the function at `addr` (tests of other modules).
+    #[cfg(test)]
+    pub(crate) fn lines_of(&self, addr: u64) -> &[Line] {
+        self.functions
+            .get(&addr)
+            .map_or(&[], |f| f.lines.as_slice())
+    }
+
+    /// The region each instruction of the function at `addr` reaches with its data access
+    /// (`memory.rs`, over the function's graph with every call returning: more paths than
+    /// any bound's, so never more precise than it allows), by line; `None`: no access, or
+    /// not placed.
+    pub fn places(&self, addr: u64) -> Result<Rc<Vec<Option<Region>>>, String> {
+        if let Some(p) = self.places.borrow().get(&addr) {
+            return Ok(Rc::clone(p));
+        }
+        if !self.functions.contains_key(&addr) {
+            return Err(format!("no function at {addr:#x}"));
+        }
+        let lines = &self.functions[&addr].lines;
+        // A graph the bound itself would refuse leaves every access unplaced (the
+        // conservative charge); the bound then fails on its own graph anyway.
+        let p = Rc::new(match self.graph(addr, &|_| false) {
+            Ok(g) => {
+                let succ: Vec<Vec<usize>> = g
+                    .succ
+                    .iter()
+                    .map(|s| s.iter().map(|&(j, _)| j).collect())
+                    .collect();
+                memory::places(lines, &succ)
+            }
+            Err(_) => vec![None; lines.len()],
+        });
+        self.places.borrow_mut().insert(addr, Rc::clone(&p));
+        Ok(p)
+    }
+
+    /// The region the data access of the instruction at `addr` reaches (`None`: it makes
+    /// none).
+    pub fn region_at(&self, addr: u64) -> Result<Option<Region>, String> {
+        let (&start, f) = self
+            .functions
+            .range(..=addr)
+            .next_back()
+            .ok_or_else(|| format!("{addr:#x}: in no function"))?;
+        let i = f
+            .lines
+            .iter()
+            .position(|l| l.addr == addr)
+            .ok_or_else(|| format!("{addr:#x}: not an instruction of {}", f.name))?;
+        Ok(self.places(start)?.get(i).copied().flatten())
     }
 
     /// The start address of the function named `name` (an error if none or several).
@@ -720,6 +807,8 @@ impl Disassembly {
             loops: Vec::new(),
             uses_fpu: false,
             walked: BTreeSet::new(),
+            placed: BTreeSet::new(),
+            accesses: BTreeMap::new(),
         };
         let total = a.function(addr, None)?;
         let stack_bytes = self.stack_bound(addr, &rules, &mut Vec::new())?;
@@ -741,6 +830,7 @@ impl Disassembly {
             loops,
             stack_bytes,
             uses_fpu: a.uses_fpu,
+            data_accesses: a.accesses,
             code_bytes: self.code_bytes(&a.walked),
             functions: a.walked,
         })
@@ -786,38 +876,11 @@ impl Disassembly {
         active.pop();
         Ok(own + deepest)
     }
-}
 
-/// One bound's walk over the call graph.
-struct Analyzer<'a> {
-    dis: &'a Disassembly,
-    rules: Rules<'a>,
-    metric: Metric,
-    /// Bounds found, by function and size context.
-    memo: HashMap<(u64, Option<Size>), u64>,
-    /// The call chain being walked (recursion check).
-    active: Vec<u64>,
-    calls: BTreeMap<String, u64>,
-    excluded: BTreeSet<String>,
-    diverging: BTreeSet<String>,
-    sized: BTreeMap<String, u64>,
-    loops: Vec<LoopUse>,
-    uses_fpu: bool,
-    /// Functions walked.
-    walked: BTreeSet<u64>,
-}
-
-impl Analyzer<'_> {
-    fn wait(&self) -> u64 {
-        match self.metric {
-            Metric::Instructions => 0,
-            Metric::Cycles(m) => m.flash_wait,
-        }
-    }
-
-    /// The graph of the function at `addr`: what the entry reaches, and the callees.
-    fn graph(&self, addr: u64) -> Result<Graph, String> {
-        let f = &self.dis.functions[&addr];
+    /// The graph of the function at `addr`: what the entry reaches, and the callees; a call
+    /// to a function `diverges` says does not return ends its path.
+    fn graph(&self, addr: u64, diverges: &dyn Fn(u64) -> bool) -> Result<Graph, String> {
+        let f = &self.functions[&addr];
         let (name, lines) = (&f.name, &f.lines);
         let index: HashMap<u64, usize> =
             lines.iter().enumerate().map(|(i, l)| (l.addr, i)).collect();
@@ -855,7 +918,7 @@ impl Analyzer<'_> {
                 entries.into_iter().map(|e| base + 2 * e).collect()
             };
             let function_at = |target: u64, what: &str| -> Result<u64, String> {
-                if self.dis.functions.contains_key(&target) {
+                if self.functions.contains_key(&target) {
                     Ok(target)
                 } else {
                     Err(format!(
@@ -892,7 +955,7 @@ impl Analyzer<'_> {
                 Flow::Call(target) => {
                     let callee = function_at(target, "call")?;
                     g.callee[i] = Some(callee);
-                    if !self.diverges(callee) {
+                    if !diverges(callee) {
                         out.extend(next.map(|j| (j, Edge::AfterCall)));
                     }
                 }
@@ -931,6 +994,36 @@ impl Analyzer<'_> {
             g.succ[i] = out;
         }
         Ok(g)
+    }
+}
+
+/// One bound's walk over the call graph.
+struct Analyzer<'a> {
+    dis: &'a Disassembly,
+    rules: Rules<'a>,
+    metric: Metric,
+    /// Bounds found, by function and size context.
+    memo: HashMap<(u64, Option<Size>), u64>,
+    /// The call chain being walked (recursion check).
+    active: Vec<u64>,
+    calls: BTreeMap<String, u64>,
+    excluded: BTreeSet<String>,
+    diverging: BTreeSet<String>,
+    sized: BTreeMap<String, u64>,
+    loops: Vec<LoopUse>,
+    uses_fpu: bool,
+    /// Functions walked.
+    walked: BTreeSet<u64>,
+    /// Functions whose data accesses are counted in `accesses`.
+    placed: BTreeSet<u64>,
+    /// Data-accessing instructions on some path, by the region they reach.
+    accesses: BTreeMap<String, u64>,
+}
+
+impl Analyzer<'_> {
+    /// The graph of the function at `addr` under the rules' diverging calls.
+    fn graph(&self, addr: u64) -> Result<Graph, String> {
+        self.dis.graph(addr, &|callee| self.diverges(callee))
     }
 
     fn diverges(&self, callee: u64) -> bool {
@@ -971,23 +1064,33 @@ impl Analyzer<'_> {
                 preds[j].push(i);
             }
         }
-        let w = self.wait();
         let model = match self.metric {
             Metric::Cycles(m) => Some(m),
             Metric::Instructions => None,
         };
         let cycles = model.is_some();
+        let places = dis.places(addr)?;
+        let first_visit = self.placed.insert(addr);
 
-        // Node costs (the instruction, its flash data, its callee) and edge costs.
+        // Node costs (the instruction, its data access, its callee) and edge costs.
         let mut cost = vec![0u64; n];
         let mut insn: Vec<Option<cycles::Cost>> = vec![None; n];
         for i in (0..n).filter(|&i| g.reached[i]) {
             let line = &lines[i];
             self.uses_fpu |= line.mnemonic.starts_with('v');
-            if cycles {
+            let region = places.get(i).copied().flatten().unwrap_or(Region::Unknown);
+            if let (Some(m), true) = (model, cycles) {
                 let c = cycles::cost(&line.mnemonic, &line.operands)
                     .map_err(|e| format!("{name}: at {:#x}: {e}", line.addr))?;
-                cost[i] = c.cycles + c.flash_lines * w;
+                let data = match &c.access {
+                    Some(a) => cycles::data_cycles(m, a, region)
+                        .map_err(|e| format!("{name}: at {:#x}: {e}", line.addr))?,
+                    None => 0,
+                };
+                if first_visit && c.access.is_some() {
+                    *self.accesses.entry(region.name().to_string()).or_default() += 1;
+                }
+                cost[i] = c.cycles + data;
                 insn[i] = Some(c);
             } else {
                 cost[i] = 1;
@@ -1091,13 +1194,17 @@ impl Analyzer<'_> {
         let nodes: Vec<usize> = (0..n).filter(|&i| g.reached[i]).collect();
         let graph = Costed { succ, cost };
         let mut found: Vec<(usize, Vec<usize>)> = Vec::new();
+        let anywhere = |_: usize, _: u64| Some(0);
         longest(
             &graph,
             &nodes,
             None,
             0,
+            &anywhere,
             &mut |h, s| {
-                found.push((h, s.to_vec()));
+                if !found.iter().any(|(x, _)| *x == h) {
+                    found.push((h, s.to_vec()));
+                }
                 Ok(1)
             },
             &mut Vec::new(),
@@ -1120,13 +1227,15 @@ impl Analyzer<'_> {
             &nodes,
             None,
             0,
+            &anywhere,
             &mut |h, _| {
                 bounds.get(&h).copied().ok_or_else(|| {
                     format!("{name}: a loop at {:#x} was not bounded", lines[h].addr)
                 })
             },
             &mut iterations,
-        )?;
+        )?
+        .ok_or_else(|| format!("{name}: no path from its entry ends"))?;
         for (h, mut use_) in uses {
             use_.iteration = iterations
                 .iter()
@@ -1450,42 +1559,49 @@ fn components(nodes: &[usize], n: usize, next: &dyn Fn(usize) -> Vec<usize>) -> 
 /// Asked for each loop's header and body: its iterations bound.
 type LoopBounder<'a> = dyn FnMut(usize, &[usize]) -> Result<u64, String> + 'a;
 
-/// The longest path from `entry` through `region` (sorted node indices), edges into
-/// `header` being a loop's back edges (they end a path: one iteration), edges leaving the
-/// region ending it too (the enclosing loop adds them). Each loop inside (a component with a
-/// cycle) becomes one node costing (its `bound` + 1) times its longest iteration plus its
-/// dearest exit; `bound` is asked for each loop's header and body, and each loop's header and
-/// dearest iteration go to `iterations`.
+/// What an edge `(v, cost)` leaving a region's internal nodes (to its header, or out of the
+/// region) adds to the path that takes it; `None`: the path may not end that way.
+type Terminal<'a> = dyn Fn(usize, u64) -> Option<u64> + 'a;
+
+/// The longest path from `entry` through `region` (sorted node indices), the edges into
+/// `header` and out of the region ending it with the value `terminal` gives (`None`: no path
+/// may end there); a node without successors (a return) ends a path with its own cost. Each
+/// loop inside (a component with a cycle, entered only at its header) becomes one node: its
+/// `bound` n (at most n passes back to its header per entry: iterations of its body) times
+/// its dearest pass around (from the header back to it), plus its dearest last pass (from the
+/// header to an exit, and on from there). `bound` is asked for each loop's header and body,
+/// and each loop's header and dearest pass around go to `iterations`. `None`: no path from
+/// the entry ends as allowed.
 fn longest(
     g: &Costed,
     region: &[usize],
     header: Option<usize>,
     entry: usize,
+    terminal: &Terminal<'_>,
     bound: &mut LoopBounder<'_>,
     iterations: &mut Vec<(usize, u64)>,
-) -> Result<u64, String> {
+) -> Result<Option<u64>, String> {
     let n = g.cost.len();
     let mut inside = vec![false; n];
     for &u in region {
         inside[u] = true;
     }
+    let internal_node = |v: usize| inside[v] && Some(v) != header;
     let internal = |u: usize| -> Vec<usize> {
         g.succ[u]
             .iter()
             .map(|&(v, _)| v)
-            .filter(|&v| inside[v] && Some(v) != header)
+            .filter(|&v| internal_node(v))
             .collect()
     };
     let comps = components(region, n, &internal);
-    let mut value = vec![0u64; n];
-    // What an edge to `v` of cost `c` adds after the node it leaves.
-    let edge = |value: &[u64], v: usize, c: u64| -> u64 {
-        if inside[v] && Some(v) != header {
-            c.saturating_add(value[v])
-        } else if Some(v) == header {
-            c
+    let mut value: Vec<Option<u64>> = vec![None; n];
+    // What taking an edge to `v` of cost `c` adds after the node it leaves.
+    let edge = |value: &[Option<u64>], v: usize, c: u64| -> Option<u64> {
+        if internal_node(v) {
+            value[v].map(|x| c.saturating_add(x))
         } else {
-            0
+            terminal(v, c)
         }
     };
     let mut comp_of = vec![usize::MAX; n];
@@ -1501,12 +1617,15 @@ fn longest(
                 .any(|&(v, _)| v == comp[0] && Some(v) != header);
         if !cyclic {
             let u = comp[0];
-            let tail = g.succ[u]
-                .iter()
-                .map(|&(v, c)| edge(&value, v, c))
-                .max()
-                .unwrap_or(0);
-            value[u] = g.cost[u].saturating_add(tail);
+            let tail = if g.succ[u].is_empty() {
+                Some(0)
+            } else {
+                g.succ[u]
+                    .iter()
+                    .filter_map(|&(v, c)| edge(&value, v, c))
+                    .max()
+            };
+            value[u] = tail.map(|t| g.cost[u].saturating_add(t));
             continue;
         }
         // The loop's entries: nodes entered from another component of the region, or the
@@ -1534,28 +1653,33 @@ fn longest(
             }
         };
         let count = bound(h, comp)?;
-        let iteration = longest(g, comp, Some(h), h, bound, iterations)?;
-        iterations.push((h, iteration));
         let mut in_comp = vec![false; n];
         for &u in comp {
             in_comp[u] = true;
         }
-        let mut exit: Option<u64> = None;
-        for &u in comp {
-            if g.succ[u].is_empty() {
-                exit = Some(exit.unwrap_or(0));
-            }
-            for &(v, c) in &g.succ[u] {
-                if !in_comp[v] {
-                    exit = Some(exit.unwrap_or(0).max(edge(&value, v, c)));
-                }
-            }
+        let exits = comp
+            .iter()
+            .any(|&u| g.succ[u].is_empty() || g.succ[u].iter().any(|&(v, _)| !in_comp[v]));
+        if !exits {
+            return Err("a loop without an exit".to_string());
         }
-        let exit = exit.ok_or("a loop without an exit")?;
-        value[h] = count
-            .saturating_add(1)
-            .saturating_mul(iteration)
-            .saturating_add(exit);
+        // A pass around: from the header back to it.
+        let around = |v: usize, c: u64| (v == h).then_some(c);
+        let iteration = longest(g, comp, Some(h), h, &around, bound, iterations)?;
+        // The last pass: from the header out of the loop (never back to it), and on.
+        let last = {
+            let value = &value;
+            let out = |v: usize, c: u64| if v == h { None } else { edge(value, v, c) };
+            longest(g, comp, Some(h), h, &out, bound, iterations)?
+        };
+        if let Some(i) = iteration {
+            iterations.push((h, i));
+        }
+        value[h] = last.map(|l| {
+            count
+                .saturating_mul(iteration.unwrap_or(0))
+                .saturating_add(l)
+        });
     }
     Ok(value[entry])
 }
@@ -1688,6 +1812,52 @@ mod tests {
         assert_eq!(instructions(&d, "snippet", Rules::default()), Ok(8 + 1));
     }
 
+    /// The same load through an address built by movw/movt (SRAM; a USART register) and
+    /// through an argument's pointer: only the unplaced one pays the flash miss.
+    #[test]
+    fn a_load_the_tracking_places_in_sram_costs_no_wait_state() {
+        let d = Disassembly::parse(
+            "
+08000100 <sram>:
+ 8000100:	movw	r1, #0
+ 8000104:	movt	r1, #8192	@ 0x2000
+ 8000108:	ldr	r0, [r1, #4]
+ 800010a:	bx	lr
+
+08000110 <unplaced>:
+ 8000110:	movw	r2, #0
+ 8000114:	movt	r2, #8192	@ 0x2000
+ 8000118:	ldr	r0, [r1, #4]
+ 800011a:	bx	lr
+
+08000120 <usart>:
+ 8000120:	movw	r1, #4096	@ 0x1000
+ 8000124:	movt	r1, #16385	@ 0x4001
+ 8000128:	ldr	r0, [r1, #4]
+ 800012a:	bx	lr
+",
+        );
+        let c = |f, m| cycles(&d, f, Rules::default(), m).expect(f);
+        let (w, p) = (cycles::WAIT_STATES, cycles::REFILL);
+        // movw 1, movt 1, ldr 2, bx 1 + P; one line entered.
+        let base = 1 + 1 + 2 + (1 + p);
+        assert_eq!(c("sram", Model::ALL_HIT), base);
+        assert_eq!(c("sram", Model::ALL_MISS), base + w);
+        assert_eq!(c("unplaced", Model::ALL_HIT), base);
+        assert_eq!(
+            c("unplaced", Model::ALL_MISS),
+            base + w + w,
+            "the load's miss"
+        );
+        // An APB2 register: its bus's latency, with or without the flash's wait states.
+        assert_eq!(c("usart", Model::ALL_HIT), base + cycles::APB2_ACCESS);
+        assert_eq!(c("usart", Model::ALL_MISS), base + w + cycles::APB2_ACCESS);
+        let b = d
+            .bound("usart", Rules::default(), Metric::Cycles(Model::ALL_MISS))
+            .expect("usart");
+        assert_eq!(b.data_accesses.get("apb2"), Some(&1));
+    }
+
     const LOOP: &str = "
 08000100 <spin>:
  8000100:	movs	r1, #0
@@ -1720,7 +1890,8 @@ mod tests {
                 reason: "test",
             }]
         };
-        // movs, then (n + 1) iterations of adds, subs, bne, then bx.
+        // movs, then n passes around (adds, subs, bne back to the header) and the last pass
+        // out (the same three, the bne falling through), then bx.
         for n in [1u64, 10, 100] {
             let loops = rules(n, 3);
             let r = Rules {
@@ -1729,7 +1900,8 @@ mod tests {
             };
             assert_eq!(instructions(&d, "spin", r), Ok(1 + (n + 1) * 3 + 1));
         }
-        // Cycles at zero wait states: an iteration is adds 1, subs 1, bne 1 + P (taken).
+        // Cycles at zero wait states: a pass around is adds 1, subs 1, bne 1 + P (taken); the
+        // last pass's bne is not taken.
         let loops = rules(10, 3);
         let r = Rules {
             loops: &loops,
@@ -1738,7 +1910,7 @@ mod tests {
         let p = cycles::REFILL;
         assert_eq!(
             cycles(&d, "spin", r, Model::ALL_HIT),
-            Ok(1 + 11 * (3 + p) + (1 + p))
+            Ok(1 + 10 * (3 + p) + 3 + (1 + p))
         );
         // A declaration for another shape of loop is stale.
         let loops = rules(10, 4);
@@ -1752,6 +1924,56 @@ mod tests {
         )
         .expect_err("stale");
         assert!(e.contains("stale"), "{e}");
+    }
+
+    /// A loop tested at its top: its last pass is the test alone, not a whole iteration
+    /// (the old (n + 1) x the dearest iteration charged the body once more).
+    #[test]
+    fn the_last_pass_of_a_loop_tested_at_its_top_is_its_test() {
+        let d = Disassembly::parse(
+            "
+08000100 <top>:
+ 8000100:	movs	r1, #0
+ 8000102:	cmp	r0, #0
+ 8000104:	beq.n	800010e <top+0xe>
+ 8000106:	adds	r1, #1
+ 8000108:	adds	r1, #1
+ 800010a:	subs	r0, #1
+ 800010c:	b.n	8000102 <top+0x2>
+ 800010e:	bx	lr
+",
+        );
+        let loops = [LoopBound {
+            function: "top",
+            ordinal: 0,
+            source: &[],
+            instructions: 6,
+            iterations: 10,
+            reason: "test",
+        }];
+        let r = Rules {
+            loops: &loops,
+            ..Rules::default()
+        };
+        // movs, 10 passes of six, the last test (cmp, beq), bx.
+        assert_eq!(instructions(&d, "top", r), Ok(1 + 10 * 6 + 2 + 1));
+        let p = cycles::REFILL;
+        // A pass: cmp 1, beq 1 (not taken), three adds/subs, b 1 + P; the last: cmp, beq taken
+        // 1 + P; bx 1 + P.
+        assert_eq!(
+            cycles(&d, "top", r, Model::ALL_HIT),
+            Ok(1 + 10 * (2 + 3 + 1 + p) + (1 + 1 + p) + (1 + p))
+        );
+        // No pass at all: the test alone.
+        let none = [LoopBound {
+            iterations: 0,
+            ..loops[0]
+        }];
+        let r = Rules {
+            loops: &none,
+            ..Rules::default()
+        };
+        assert_eq!(instructions(&d, "top", r), Ok(1 + 2 + 1));
     }
 
     #[test]
