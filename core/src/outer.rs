@@ -304,6 +304,29 @@ mod tests {
     }
 
     #[test]
+    fn slew_axes_limits_each_axis_by_its_own_step() {
+        // Right by at most 0.1, down by at most 0.2, forward by at most 0.05: the first two
+        // are limited (up and down), the third reaches its target.
+        let from = VelocityRe {
+            x_right_mps: 0.0,
+            y_down_mps: 1.0,
+            z_fwd_mps: 0.5,
+        };
+        let to = VelocityRe {
+            x_right_mps: 1.0,
+            y_down_mps: -1.0,
+            z_fwd_mps: 0.53,
+        };
+        let v = slew_axes(&from, &to, [0.1, 0.2, 0.05]);
+        assert_eq!((v.x_right_mps, v.y_down_mps), (0.1, 0.8));
+        assert!((v.z_fwd_mps - 0.53).abs() < 1e-7, "{v:?}");
+        // Swapped steps: each axis uses its own.
+        let v = slew_axes(&from, &to, [0.05, 0.1, 0.2]);
+        assert_eq!((v.x_right_mps, v.y_down_mps), (0.05, 0.9));
+        assert!((v.z_fwd_mps - 0.53).abs() < 1e-7, "{v:?}");
+    }
+
+    #[test]
     fn pbvs_reconstructs_the_offset_at_trim() {
         let c = ControllerConfig::paper();
         let geo = c.pbvs_geometry();
