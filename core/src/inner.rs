@@ -273,6 +273,25 @@ mod tests {
         assert_eq!(e.power_pct(), 0.0);
     }
 
+    #[test]
+    fn a_new_engine_model_keeps_the_power_and_runs_on_from_it() {
+        // The gain schedule's follow-up at a new flight condition: the estimate keeps its
+        // power and the next step is the new model's, p' = pole p + gain u.
+        let mut e = EngineEstimate::new(EngineModel {
+            pole: 0.5,
+            gain_pct: 2.0,
+        });
+        e.advance(1.0);
+        assert_eq!(e.power_pct(), 2.0);
+        e.set_model(EngineModel {
+            pole: 0.9,
+            gain_pct: 10.0,
+        });
+        assert_eq!(e.power_pct(), 2.0);
+        e.advance(0.5);
+        assert!((e.power_pct() - (0.9 * 2.0 + 10.0 * 0.5)).abs() < 1e-6);
+    }
+
     fn channel() -> Channel<1, 1, 1> {
         let g = ChannelGains {
             k_state: [[2.0]],
