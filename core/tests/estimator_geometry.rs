@@ -1,9 +1,11 @@
 //! The drogue estimator's geometry (`ibvs_core::estimator::TipGeometry`) against rotations
 //! built here from the frames of `docs/conventions.md`: the camera's axes in body axes for a
 //! boresight pitched down by `p` (right = body y, down = `(-sin p, 0, cos p)`, boresight =
-//! `(cos p, 0, sin p)`), the body's attitude as the 3-2-1 Euler rotation of nalgebra.
+//! `(cos p, 0, sin p)`), the body's attitude as the 3-2-1 Euler rotation of nalgebra; the
+//! tip sight's tolerance and running average, and the closing speed, against their
+//! statements in the module doc and `docs/conventions.md`.
 
-use ibvs_core::estimator::TipGeometry;
+use ibvs_core::estimator::{DrogueEstimate, EstimatorConfig, TipGeometry, TipSight, TipSighting};
 use ibvs_core::kinematics::CameraMount;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -88,4 +90,77 @@ fn the_attitudes_de_rotation_is_the_first_order_of_the_body_rotation() {
             .fold(0.0, f32::max);
         assert!(moved > 0.03, "{phi} {theta} {psi}: {moved}");
     }
+}
+
+/// The level camera of the first test: the tip appears at (0.15, -0.2).
+fn level_camera() -> TipGeometry {
+    let camera = CameraMount {
+        position_body_m: [1.0, -0.3, 0.4],
+        pitch_down_rad: 0.0,
+    };
+    TipGeometry::new(&camera, [3.0, 0.0, 0.0], 0.0)
+}
+
+#[test]
+fn the_tip_sight_accepts_within_the_tolerance_of_the_geometry_and_averages() {
+    // docs/conventions.md, "Camera set back on the nose": a running average of the tip's
+    // measured image point, within the tolerance (radial, 0.06 here) of where the geometry
+    // puts it, else rejected. Average: image += k (measured - image), k = 0.25 here.
+    let cfg = EstimatorConfig {
+        tip_sight_tolerance: 0.06,
+        tip_sight_filter: 0.25,
+        ..EstimatorConfig::default()
+    };
+    let g = level_camera();
+    let b = g.tip_image();
+    // 0.05 off in x only, or in y only: inside.
+    for d in [[0.05, 0.0], [0.0, 0.05], [-0.05, 0.0], [0.0, -0.05]] {
+        let mut s = TipSight::new(&g);
+        assert_eq!(
+            s.observe(Some([b[0] + d[0], b[1] + d[1]]), &cfg),
+            TipSighting::Used,
+            "{d:?}"
+        );
+    }
+    // 0.05 and 0.04: 0.064 radially, outside (each alone is inside).
+    for d in [[0.05, 0.04], [-0.04, 0.05]] {
+        let mut s = TipSight::new(&g);
+        assert_eq!(
+            s.observe(Some([b[0] + d[0], b[1] + d[1]]), &cfg),
+            TipSighting::Rejected,
+            "{d:?}"
+        );
+        assert_eq!(s.image(), b, "a rejection leaves the average");
+    }
+    // The average: from b toward m = b + (0.04, -0.02) by a quarter, twice.
+    let mut s = TipSight::new(&g);
+    let m = [b[0] + 0.04, b[1] - 0.02];
+    s.observe(Some(m), &cfg);
+    let once = [b[0] + 0.25 * 0.04, b[1] - 0.25 * 0.02];
+    assert!(
+        (s.image()[0] - once[0]).abs() < 1e-6 && (s.image()[1] - once[1]).abs() < 1e-6,
+        "{:?}",
+        s.image()
+    );
+    s.observe(Some(m), &cfg);
+    let twice = [
+        b[0] + 0.04 * (1.0 - 0.75 * 0.75),
+        b[1] - 0.02 * (1.0 - 0.75 * 0.75),
+    ];
+    assert!(
+        (s.image()[0] - twice[0]).abs() < 1e-6 && (s.image()[1] - twice[1]).abs() < 1e-6,
+        "{:?}",
+        s.image()
+    );
+    assert_eq!(s.observe(None, &cfg), TipSighting::None);
+}
+
+#[test]
+fn the_closing_speed_is_the_tips_forward_speed_less_the_drogues() {
+    let e = DrogueEstimate {
+        drogue_velocity_mps: [0.0, 0.0, 0.3],
+        ..DrogueEstimate::default()
+    };
+    assert!((e.closing_mps(1.0) - 0.7).abs() < 1e-6);
+    assert!((e.closing_mps(-0.2) + 0.5).abs() < 1e-6);
 }
