@@ -125,6 +125,52 @@ mod tests {
         assert!(!sat.non_finite);
     }
 
+    /// The next float above `x` (toward +infinity), for finite `x`.
+    fn up(x: f32) -> f32 {
+        if x == 0.0 {
+            f32::from_bits(1)
+        } else if x > 0.0 {
+            f32::from_bits(x.to_bits() + 1)
+        } else {
+            f32::from_bits(x.to_bits() - 1)
+        }
+    }
+
+    /// The next float below `x`.
+    fn down(x: f32) -> f32 {
+        -up(-x)
+    }
+
+    #[test]
+    fn a_limit_itself_is_inside_and_the_next_float_beyond_it_saturates() {
+        // Every channel, both limits: exactly on the limit the command passes unchanged and
+        // no saturation is reported (the anti-windup must not freeze an integrator there);
+        // one float inside, the same; one float beyond, the limit and the side.
+        let lim = ActuatorLimits::default();
+        for i in 0..4 {
+            let (lo, hi) = (lim.min[i], lim.max[i]);
+            for (v, want, side) in [
+                (hi, hi, 0),
+                (down(hi), down(hi), 0),
+                (up(hi), hi, 1),
+                (lo, lo, 0),
+                (up(lo), up(lo), 0),
+                (down(lo), lo, -1),
+            ] {
+                let mut req = [0.0; 4];
+                // Other channels inside their limits (the throttle's range is 0..1).
+                req[1] = 0.5;
+                req[i] = v;
+                let (out, sat) = lim.saturate(req, [0.0, 0.5, 0.0, 0.0]);
+                assert_eq!(out[i], want, "channel {i}, requested {v}");
+                let mut want_side = [0; 4];
+                want_side[i] = side;
+                assert_eq!(sat.side, want_side, "channel {i}, requested {v}");
+                assert!(!sat.non_finite);
+            }
+        }
+    }
+
     #[test]
     fn replaces_non_finite_by_the_fallback() {
         let lim = ActuatorLimits::default();

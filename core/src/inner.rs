@@ -273,6 +273,25 @@ mod tests {
         assert_eq!(e.power_pct(), 0.0);
     }
 
+    #[test]
+    fn a_new_engine_model_keeps_the_power_and_runs_on_from_it() {
+        // The gain schedule's follow-up at a new flight condition: the estimate keeps its
+        // power and the next step is the new model's, p' = pole p + gain u.
+        let mut e = EngineEstimate::new(EngineModel {
+            pole: 0.5,
+            gain_pct: 2.0,
+        });
+        e.advance(1.0);
+        assert_eq!(e.power_pct(), 2.0);
+        e.set_model(EngineModel {
+            pole: 0.9,
+            gain_pct: 10.0,
+        });
+        assert_eq!(e.power_pct(), 2.0);
+        e.advance(0.5);
+        assert!((e.power_pct() - (0.9 * 2.0 + 10.0 * 0.5)).abs() < 1e-6);
+    }
+
     fn channel() -> Channel<1, 1, 1> {
         let g = ChannelGains {
             k_state: [[2.0]],
@@ -303,6 +322,30 @@ mod tests {
         // The same update against a lower limit unwinds it: allowed.
         assert!(!ch.integrate(&ch.output(&x), &v1(1.0), &[-1], 0.02, 10.0));
         assert!(ch.integrators()[0] < 0.0);
+    }
+
+    #[test]
+    fn a_free_input_or_a_zero_update_never_freezes_an_integrator() {
+        // Two inputs on one integrator, K_q = 0.5 each. The update dq changes input j by
+        // -K_q[j] dq: it deepens a limit only when that change points into it (the module
+        // doc's anti-windup), so an input inside its limits never freezes, and neither does an
+        // update of zero.
+        let g = ChannelGains {
+            k_state: [[0.0], [0.0]],
+            k_integral: [[0.5], [0.5]],
+            c_cg: [[1.0]],
+        };
+        let mut ch = Channel::<1, 1, 2>::new(&g, &[[0.0]], [0.0, 0.0]);
+        // y = v_des: dq = 0 with input 0 at its lower limit: nothing deepens.
+        assert!(!ch.integrate(&v1(1.0), &v1(1.0), &[-1, 0], 0.02, 10.0));
+        assert_eq!(ch.integrators()[0], 0.0);
+        // y - v_des = 1: dq = 0.02 moves input 0 down, away from its upper limit; input 1 is
+        // free. It integrates.
+        assert!(!ch.integrate(&v1(1.0), &v1(0.0), &[1, 0], 0.02, 10.0));
+        assert!((ch.integrators()[0] - 0.02).abs() < 1e-7);
+        // The same update with input 0 at its lower limit deepens it: frozen.
+        assert!(ch.integrate(&v1(1.0), &v1(0.0), &[-1, 0], 0.02, 10.0));
+        assert!((ch.integrators()[0] - 0.02).abs() < 1e-7);
     }
 
     #[test]

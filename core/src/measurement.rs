@@ -454,6 +454,71 @@ mod tests {
         assert_eq!(s.observe(14), SequenceCheck::New { dropped: 0 });
     }
 
+    fn feature_bits(x: u32, y: u32, depth: u32) -> ImageFeature {
+        ImageFeature {
+            image_x: f32::from_bits(x),
+            image_y: f32::from_bits(y),
+            depth_m: f32::from_bits(depth),
+        }
+    }
+
+    #[test]
+    fn a_frame_that_changed_in_any_two_fields_by_the_same_bits_is_not_frozen() {
+        // With a limit of 0 the first repeat is rejected. Frames that differ from the last in
+        // two fields by the same bit pattern are new content (a comparison that let the two
+        // differences cancel would call them frozen).
+        let base = (0.1_f32.to_bits(), (-0.2_f32).to_bits(), 5.0_f32.to_bits());
+        let m = 0x0000_0100;
+        for changed in [
+            feature_bits(base.0 ^ m, base.1 ^ m, base.2),
+            feature_bits(base.0 ^ m, base.1, base.2 ^ m),
+            feature_bits(base.0, base.1 ^ m, base.2 ^ m),
+        ] {
+            let mut d = FreezeDetector::default();
+            let first = feature_bits(base.0, base.1, base.2);
+            assert!(d.observe(first, 0).is_ok());
+            assert!(d.observe(changed, 0).is_ok(), "{changed:?}");
+            // And the same frame again is a repeat.
+            assert_eq!(d.observe(changed, 0), Err(MeasurementError::Frozen));
+        }
+    }
+
+    #[test]
+    fn a_reset_freeze_detector_takes_the_same_frame_as_new() {
+        let f = feature_bits(0.1_f32.to_bits(), 0.2_f32.to_bits(), 3.0_f32.to_bits());
+        let mut d = FreezeDetector::default();
+        assert!(d.observe(f, 0).is_ok());
+        assert_eq!(d.observe(f, 0), Err(MeasurementError::Frozen));
+        d.reset();
+        assert!(d.observe(f, 0).is_ok(), "forgotten by the reset");
+        assert_eq!(d.observe(f, 0), Err(MeasurementError::Frozen));
+    }
+
+    #[test]
+    fn every_measurement_error_has_its_own_message() {
+        extern crate std;
+        use std::string::ToString;
+        let all = [
+            MeasurementError::NotTracked,
+            MeasurementError::NonFinite,
+            MeasurementError::DepthNotPositive,
+            MeasurementError::DepthTooLarge,
+            MeasurementError::OutsideFieldOfView,
+            MeasurementError::Repeated,
+            MeasurementError::OutOfOrder,
+            MeasurementError::Frozen,
+        ];
+        let texts: std::vec::Vec<_> = all.iter().map(|e| e.to_string()).collect();
+        for (i, t) in texts.iter().enumerate() {
+            assert!(!t.is_empty(), "{:?}", all[i]);
+            assert!(
+                texts.iter().filter(|u| *u == t).count() == 1,
+                "{:?}: {t} not unique",
+                all[i]
+            );
+        }
+    }
+
     #[test]
     fn sequence_wraps() {
         let mut s = SequenceTracker::default();

@@ -1388,9 +1388,9 @@ mod tests {
         }
     }
 
-    /// A refuelling machine flown through engage, the station's dwell and the commit gate
-    /// into the capture (terminal), with its configuration and limits.
-    fn refuelling_capture() -> (ModeMachine, RefuellingConfig, ModeLimits) {
+    /// A refuelling machine flown through engage and the station's dwell into the contact
+    /// approach, with its configuration and limits.
+    fn refuelling_approach() -> (ModeMachine, RefuellingConfig, ModeLimits) {
         let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
         let lim = ModeLimits::for_procedure(&cfg, &vel(), Procedure::Refuelling, &rc, TS);
         let mut m = ModeMachine::default();
@@ -1408,9 +1408,156 @@ mod tests {
             go(&mut m, station);
         }
         assert_eq!(m.mode(), Mode::Approach);
-        go(&mut m, refuel_inputs(0.0, rc.commit_depth_m, 0.0));
+        (m, rc, lim)
+    }
+
+    /// A refuelling machine flown on from [`refuelling_approach`] through the commit gate
+    /// into the capture (terminal).
+    fn refuelling_capture() -> (ModeMachine, RefuellingConfig, ModeLimits) {
+        let (mut m, rc, lim) = refuelling_approach();
+        m.advance(
+            &refuel_inputs(0.0, rc.commit_depth_m, 0.0),
+            &ModeConfig::default(),
+            &rc,
+            TS,
+            &lim,
+        );
         assert_eq!(m.mode(), Mode::Terminal);
         (m, rc, lim)
+    }
+
+    /// The next float above a positive `x`.
+    fn above(x: f32) -> f32 {
+        f32::from_bits(x.to_bits() + 1)
+    }
+
+    #[test]
+    fn each_refuelling_limit_is_inclusive_and_the_next_float_beyond_it_decides() {
+        // The table's conditions are strict: "offset > abort_offset_m", "predicted miss >
+        // gate_radius_m", "depth < -overshoot_m", "predicted miss > the late gate's radius".
+        let cfg = ModeConfig::default();
+        let run = |m: &mut ModeMachine, rc: &RefuellingConfig, lim: &ModeLimits, i: ModeInputs| {
+            m.advance(&i, &cfg, rc, TS, lim);
+            (m.mode(), m.no_go())
+        };
+        // Contact approach, 2 m out: the offset on the abort limit flies on; beyond it, a no-go.
+        let (mut m, rc, lim) = refuelling_approach();
+        let on = refuel_inputs(rc.abort_offset_m, 2.0, 0.0);
+        assert_eq!(run(&mut m, &rc, &lim, on), (Mode::Approach, None));
+        let beyond = refuel_inputs(above(rc.abort_offset_m), 2.0, 0.0);
+        assert_eq!(
+            run(&mut m, &rc, &lim, beyond),
+            (Mode::MissedApproach, Some(NoGoReason::OffsetTooLarge))
+        );
+        // At the commit depth: a predicted miss on the gate's radius is a go.
+        let (mut m, rc, lim) = refuelling_approach();
+        let on = refuel_inputs(0.0, rc.commit_depth_m, rc.gate_radius_m);
+        assert_eq!(run(&mut m, &rc, &lim, on), (Mode::Terminal, None));
+        let (mut m, rc, lim) = refuelling_approach();
+        let beyond = refuel_inputs(0.0, rc.commit_depth_m, above(rc.gate_radius_m));
+        assert_eq!(
+            run(&mut m, &rc, &lim, beyond),
+            (Mode::MissedApproach, Some(NoGoReason::PredictedMiss))
+        );
+        // In the capture, on the plane: the late gate's radius is the final one exactly.
+        let (mut m, rc, lim) = refuelling_capture();
+        let on = refuel_inputs(0.0, 0.0, rc.late_gate_final_radius_m);
+        assert_eq!(run(&mut m, &rc, &lim, on), (Mode::Terminal, None));
+        let beyond = refuel_inputs(0.0, 0.0, above(rc.late_gate_final_radius_m));
+        assert_eq!(
+            run(&mut m, &rc, &lim, beyond),
+            (Mode::MissedApproach, Some(NoGoReason::LateNoGo))
+        );
+        // Past the plane by the overshoot exactly: still the capture; a float further, a miss.
+        let (mut m, rc, lim) = refuelling_capture();
+        let on = refuel_inputs(0.0, -rc.overshoot_m, 0.0);
+        assert_eq!(run(&mut m, &rc, &lim, on), (Mode::Terminal, None));
+        let beyond = refuel_inputs(0.0, -above(rc.overshoot_m), 0.0);
+        assert_eq!(
+            run(&mut m, &rc, &lim, beyond),
+            (Mode::MissedApproach, Some(NoGoReason::PassedDroguePlane))
+        );
+    }
+
+    #[test]
+    fn mode_steps_counts_the_steps_in_the_current_mode() {
+        // Engaged at the station but not stable (0.5 m off): the machine stays pre-contact and
+        // counts; the approach restarts the count.
+        let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
+        let lim = ModeLimits::for_procedure(&cfg, &vel(), Procedure::Refuelling, &rc, TS);
+        let mut m = ModeMachine::default();
+        let off = refuel_inputs(0.5, rc.station_depth_m, 0.0);
+        let engage = ModeInputs {
+            request: ModeRequest::Engage,
+            ..off
+        };
+        m.advance(&engage, &cfg, &rc, TS, &lim);
+        assert_eq!((m.mode(), m.mode_steps()), (Mode::PreContact, 0));
+        for k in 1..=7 {
+            m.advance(&off, &cfg, &rc, TS, &lim);
+            assert_eq!((m.mode(), m.mode_steps()), (Mode::PreContact, k));
+        }
+        let (mut m, rc, lim) = refuelling_approach();
+        // The helper flies dwell + 1 stable steps after engage: the approach is entered on the
+        // dwell's last step and has run one.
+        assert_eq!(m.mode_steps(), 1);
+        m.advance(&refuel_inputs(0.0, 2.0, 0.0), &cfg, &rc, TS, &lim);
+        m.advance(&refuel_inputs(0.0, 2.0, 0.0), &cfg, &rc, TS, &lim);
+        assert_eq!((m.mode(), m.mode_steps()), (Mode::Approach, 3));
+    }
+
+    #[test]
+    fn the_paper_blind_phase_passes_the_plane_strictly_beyond_the_overshoot() {
+        // Steps of 1/32 s at 2 m/s dead-reckon 1/16 m each, exactly: from 0.5 m the depth is
+        // -0.5 m (minus the overshoot) after 16 steps, still terminal; -0.5625 after 17, a miss.
+        let cfg = ModeConfig::default();
+        assert_eq!(cfg.terminal_overshoot_m, 0.5);
+        let ts = 1.0 / 32.0;
+        let mut m = engaged();
+        m.update(
+            &ModeInputs {
+                target: Some(at(0.0, 0.0, 0.5)),
+                ..inputs()
+            },
+            &cfg,
+            &vel(),
+            ts,
+        );
+        assert_eq!(m.mode(), Mode::Terminal);
+        let blind = ModeInputs {
+            target: None,
+            camera_fwd_mps: 2.0,
+            ..inputs()
+        };
+        for _ in 0..16 {
+            m.update(&blind, &cfg, &vel(), ts);
+        }
+        assert_eq!(m.terminal().depth_m, -0.5);
+        assert_eq!(m.mode(), Mode::Terminal);
+        m.update(&blind, &cfg, &vel(), ts);
+        assert_eq!(
+            m.breakaway_reason(),
+            Some(BreakawayReason::PassedDroguePlane)
+        );
+    }
+
+    #[test]
+    fn the_limits_name_their_procedure_and_count_the_clearing_phase_in_steps() {
+        let (cfg, vel) = (ModeConfig::default(), vel());
+        let rc = RefuellingConfig {
+            missed_clear_s: 1.234,
+            ..RefuellingConfig::default()
+        };
+        for procedure in [Procedure::Paper, Procedure::Refuelling] {
+            let lim = ModeLimits::for_procedure(&cfg, &vel, procedure, &rc, TS);
+            assert_eq!(lim.procedure(), procedure);
+            // 1.234 s at 50 Hz: 61.7 steps, rounded to 62 (not truncated to 61).
+            assert_eq!(lim.clear_steps(), 62);
+        }
+        assert_eq!(
+            ModeLimits::new(&cfg, &vel, TS).procedure(),
+            Procedure::Paper
+        );
     }
 
     #[test]

@@ -304,6 +304,29 @@ mod tests {
     }
 
     #[test]
+    fn slew_axes_limits_each_axis_by_its_own_step() {
+        // Right by at most 0.1, down by at most 0.2, forward by at most 0.05: the first two
+        // are limited (up and down), the third reaches its target.
+        let from = VelocityRe {
+            x_right_mps: 0.0,
+            y_down_mps: 1.0,
+            z_fwd_mps: 0.5,
+        };
+        let to = VelocityRe {
+            x_right_mps: 1.0,
+            y_down_mps: -1.0,
+            z_fwd_mps: 0.53,
+        };
+        let v = slew_axes(&from, &to, [0.1, 0.2, 0.05]);
+        assert_eq!((v.x_right_mps, v.y_down_mps), (0.1, 0.8));
+        assert!((v.z_fwd_mps - 0.53).abs() < 1e-7, "{v:?}");
+        // Swapped steps: each axis uses its own.
+        let v = slew_axes(&from, &to, [0.05, 0.1, 0.2]);
+        assert_eq!((v.x_right_mps, v.y_down_mps), (0.05, 0.9));
+        assert!((v.z_fwd_mps - 0.53).abs() < 1e-7, "{v:?}");
+    }
+
+    #[test]
     fn pbvs_reconstructs_the_offset_at_trim() {
         let c = ControllerConfig::paper();
         let geo = c.pbvs_geometry();
@@ -311,6 +334,147 @@ mod tests {
         let r =
             pbvs_drogue_from_probe_tanker_m(&feature(0.25, -0.5, 4.0), &NavSample::default(), &geo);
         assert!((r - Vector3::new(4.0, 1.0, -2.0)).norm() < 1e-5, "{r:?}");
+    }
+
+    #[test]
+    fn ibvs_is_the_documented_law_term_by_term() {
+        // docs/conventions.md, "Outer loop (IBVS)": v_x = k1 e_x, v_y = k2 e_y,
+        // v_z = min(max(k3 z - k4 |e_x| - k5 |e_y|, a), v_max); Table 1: k1 = 1, k2 = 2,
+        // k3 = 0.3, k4 = 3, k5 = 1. At 5 m the gain cap (0.7 z = 3.5) is above k1 and k2.
+        let c = ControllerConfig::paper();
+        let o = ibvs(&feature(0.1, -0.2, 5.0), &c.ibvs, &c.velocity_limits);
+        assert!((o.v_des.x_right_mps - 0.1).abs() < 1e-6, "{o:?}");
+        assert!((o.v_des.y_down_mps + 0.4).abs() < 1e-6, "{o:?}");
+        // 0.3 * 5 - 3 * 0.1 - 1 * 0.2 = 1.0 m/s, inside [0.8, 2.0].
+        assert!((o.v_des.z_fwd_mps - 1.0).abs() < 1e-6, "{o:?}");
+    }
+
+    #[test]
+    fn ibvs_drives_the_drogue_onto_a_non_zero_convergence_point() {
+        // Eq. (2): e = p - p_o. With the convergence point at (0.1, -0.05) the law is at rest
+        // when the drogue is seen there, and a drogue on the boresight is 0.1 left of and
+        // 0.05 below the point: the camera moves left and down (so that the drogue moves
+        // right and up in the image), closing slower by k4 0.1 + k5 0.05.
+        let c = ControllerConfig::paper();
+        let g = IbvsGains {
+            convergence_point: [0.1, -0.05],
+            ..c.ibvs
+        };
+        let lim = &c.velocity_limits;
+        let at_point = ibvs(&feature(0.1, -0.05, 5.0), &g, lim);
+        assert_eq!(at_point.v_des.x_right_mps, 0.0);
+        assert_eq!(at_point.v_des.y_down_mps, 0.0);
+        assert!(
+            (at_point.v_des.z_fwd_mps - 1.5).abs() < 1e-6,
+            "{at_point:?}"
+        );
+        let centred = ibvs(&feature(0.0, 0.0, 5.0), &g, lim);
+        assert!(
+            (centred.v_des.x_right_mps + 0.1).abs() < 1e-6,
+            "{centred:?}"
+        );
+        assert!((centred.v_des.y_down_mps - 0.1).abs() < 1e-6, "{centred:?}");
+        assert!((centred.v_des.z_fwd_mps - 1.15).abs() < 1e-6, "{centred:?}");
+        // The target estimate is where the drogue is, not the error: the point does not move it.
+        assert_eq!(
+            centred.target,
+            TargetEstimate {
+                right_m: 0.0,
+                down_m: 0.0,
+                depth_m: 5.0
+            }
+        );
+    }
+
+    #[test]
+    fn pbvs_is_the_documented_law_term_by_term() {
+        // docs/conventions.md, "Outer loop (PBVS baseline)": v_right = 0.4 r_y,
+        // v_down = 0.4 r_z, v_fwd = min(max(0.3 r_x - 0.5 |r_y| - 0.5 |r_z|, a), v_max).
+        // The paper's camera at the tip, at trim: r = (z, e_x z, e_y z) = (5, 0.5, -0.25).
+        let c = ControllerConfig::paper();
+        let o = pbvs(
+            &feature(0.1, -0.05, 5.0),
+            &NavSample::default(),
+            &c.pbvs_geometry(),
+            &c.pbvs,
+            &c.velocity_limits,
+        );
+        assert!((o.v_des.x_right_mps - 0.2).abs() < 1e-5, "{o:?}");
+        assert!((o.v_des.y_down_mps + 0.1).abs() < 1e-5, "{o:?}");
+        // 1.5 - 0.25 - 0.125 = 1.125 m/s, inside [0.8, 2.0].
+        assert!((o.v_des.z_fwd_mps - 1.125).abs() < 1e-5, "{o:?}");
+        let t = o.target;
+        assert!((t.right_m - 0.5).abs() < 1e-5, "{t:?}");
+        assert!((t.down_m + 0.25).abs() < 1e-5, "{t:?}");
+        assert!((t.depth_m - 5.0).abs() < 1e-5, "{t:?}");
+        // Drogue left of and below the tip: the command is left and down. Far off the axis the
+        // closing speed is floored at a; far ahead and centred it is capped.
+        let lim = &c.velocity_limits;
+        let o = pbvs(
+            &feature(-0.1, 0.05, 5.0),
+            &NavSample::default(),
+            &c.pbvs_geometry(),
+            &c.pbvs,
+            lim,
+        );
+        assert!((o.v_des.x_right_mps + 0.2).abs() < 1e-5, "{o:?}");
+        assert!((o.v_des.y_down_mps - 0.1).abs() < 1e-5, "{o:?}");
+        assert!((o.v_des.z_fwd_mps - 1.125).abs() < 1e-5, "{o:?}");
+        let off_axis = pbvs(
+            &feature(0.5, 0.0, 4.0),
+            &NavSample::default(),
+            &c.pbvs_geometry(),
+            &c.pbvs,
+            lim,
+        );
+        assert_eq!(
+            off_axis.v_des.z_fwd_mps, lim.min_closing_mps,
+            "1.2 - 1.0 < a"
+        );
+        let far = pbvs(
+            &feature(0.0, 0.0, 10.0),
+            &NavSample::default(),
+            &c.pbvs_geometry(),
+            &c.pbvs,
+            lim,
+        );
+        assert_eq!(far.v_des.z_fwd_mps, lim.max_closing_mps, "3.0 > v_max");
+    }
+
+    #[test]
+    fn pbvs_turns_the_camera_point_by_the_navigation_attitude() {
+        // The paper's camera at the tip; the drogue on the boresight at 5 m. Nose 0.1 rad up
+        // from trim: the boresight points 0.1 rad above the horizon, so the drogue is above
+        // the tip (down negative). Heading 0.1 rad right: it is right of the tip.
+        let c = ControllerConfig::paper();
+        let geo = c.pbvs_geometry();
+        let (z, a) = (5.0_f32, 0.1_f32);
+        let mut nav = NavSample::default();
+        nav.lon.theta_rad = a;
+        let r = pbvs_drogue_from_probe_tanker_m(&feature(0.0, 0.0, z), &nav, &geo);
+        let want = Vector3::new(z * libm::cosf(a), 0.0, -z * libm::sinf(a));
+        assert!((r - want).norm() < 1e-4, "{r:?} vs {want:?}");
+        let mut nav = NavSample::default();
+        nav.lat.psi_rad = a;
+        let r = pbvs_drogue_from_probe_tanker_m(&feature(0.0, 0.0, z), &nav, &geo);
+        let want = Vector3::new(z * libm::cosf(a), z * libm::sinf(a), 0.0);
+        assert!((r - want).norm() < 1e-4, "{r:?} vs {want:?}");
+        // Banked 0.1 rad right (right wing down), with a boresight along the body x axis (trim
+        // pitch zero, so the bank turns about the boresight): a point seen 0.2 right of the
+        // boresight lies right and below, (z, 0.2 z cos a, 0.2 z sin a).
+        let along_x = PbvsGeometry {
+            camera: CameraMount {
+                pitch_down_rad: 0.0,
+                ..geo.camera
+            },
+            trim_pitch_rad: 0.0,
+            ..geo
+        };
+        let mut nav = NavSample::default();
+        nav.lat.phi_rad = a;
+        let r = pbvs_drogue_from_probe_tanker_m(&feature(0.2, 0.0, z), &nav, &along_x);
+        let want = Vector3::new(z, 0.2 * z * libm::cosf(a), 0.2 * z * libm::sinf(a));
+        assert!((r - want).norm() < 1e-4, "{r:?} vs {want:?}");
     }
 
     #[test]

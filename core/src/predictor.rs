@@ -270,6 +270,24 @@ mod tests {
     }
 
     #[test]
+    fn a_new_model_predicts_from_the_recorded_commands() {
+        // One step of latency: the prediction is one step of the model from the late sample
+        // under the command recorded, m + (Phi_mm - I) m + Phi_me e + Gamma_m u with e = 0
+        // (the actuators at trim when the command was sent). After the gain schedule's
+        // follow-up the new model makes it: 2 - 0.5 * 2 + 0.3 * 1 = 1.3 (the old one: 1.9).
+        let mut p = LatencyPredictor::new(model(), 1);
+        p.record([1.0]);
+        p.set_model(PlantModel {
+            delta_mm: [[-0.5]],
+            phi_me: [[0.7]],
+            phi_ee: [[0.6]],
+            gamma_m: [[0.3]],
+            gamma_e: [[0.4]],
+        });
+        assert!((p.predict([2.0])[0] - 1.3).abs() < 1e-6);
+    }
+
+    #[test]
     fn a_latency_above_the_maximum_is_clamped() {
         let p = LatencyPredictor::new(model(), 200);
         assert_eq!(p.latency_steps(), usize::from(MAX_NAV_LATENCY_STEPS));
