@@ -3,10 +3,11 @@
 //! procedure": lateral and vertical `v = ff v_ahead + clamp(k r, ±max_correction)` (the
 //! drogue's predicted velocity fed forward while closing, the instantaneous offset closing,
 //! the mean offset holding the station or clearing), `k` the tracking gain or, in the
-//! capture, `max(k, 1 / max(t_go, t_min))` with `t_go = depth / contact speed`; forward,
-//! relative to the drogue's own forward velocity: the station's depth hold
-//! `clamp(k_s (depth - station), ±v_s)`, the contact speed, or the missed approach's back-off
-//! (with its descent added to the vertical); everything saturated to the velocity limits.
+//! capture, `max(k, 1 / max(t_go, t_min))` with `t_go = depth / contact speed`; forward: the
+//! contact speed relative to the drogue's own forward velocity while closing, and relative to
+//! the tanker (the drogue's fore-and-aft swing left out) the station's depth hold
+//! `clamp(k_s (depth - station), ±v_s)` or the missed approach's back-off (with its descent
+//! added to the vertical); everything saturated to the velocity limits.
 //!
 //! Every expected value is computed by hand from those equations and the defaults of
 //! `RefuellingConfig` (track gain 0.5/s, correction at most 0.5 m/s, station 3 m at 0.4/s
@@ -47,22 +48,23 @@ fn assert_velocity(got: VelocityRe, want: [f32; 3], what: &str) {
 #[test]
 fn the_station_holds_depth_and_follows_the_mean_offset_without_feed_forward() {
     let (rc, lim) = (RefuellingConfig::default(), limits());
-    // The instantaneous offset and the predicted velocity must not enter: only the mean.
+    // The instantaneous offset, the predicted velocity and the drogue's forward swing must
+    // not enter: only the mean offset and the depth.
     let e = |depth| estimate([1.0, 1.0], [0.2, -0.4], 0.1, depth);
     let ahead = [0.3, 0.3];
-    // 1 m behind the station: close at 0.4 m/s (plus the drogue's 0.1); right 0.5 * 0.2,
-    // up 0.5 * 0.4.
-    let v = desired_velocity(&e(4.0), ahead, Forward::Station, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, 0.5], "1 m behind");
+    let c = rc.contact_speed_mps;
+    // 1 m behind the station: close at 0.4 m/s; right 0.5 * 0.2, up 0.5 * 0.4.
+    let v = desired_velocity(&e(4.0), ahead, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [0.1, -0.2, 0.4], "1 m behind");
     // 1 m inside the station: open at 0.4 m/s.
-    let v = desired_velocity(&e(2.0), ahead, Forward::Station, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, -0.3], "1 m inside");
+    let v = desired_velocity(&e(2.0), ahead, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [0.1, -0.2, -0.4], "1 m inside");
     // 7 m behind: 2.8 m/s limited to the station's 1.5 m/s.
-    let v = desired_velocity(&e(10.0), ahead, Forward::Station, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, 1.6], "far behind");
+    let v = desired_velocity(&e(10.0), ahead, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [0.1, -0.2, 1.5], "far behind");
     // A large mean offset is closed at the correction limit, 0.5 m/s.
     let far_off = estimate([0.0, 0.0], [-3.0, 2.0], 0.0, 3.0);
-    let v = desired_velocity(&far_off, ahead, Forward::Station, &rc, &lim);
+    let v = desired_velocity(&far_off, ahead, Forward::Station, c, &rc, &lim);
     assert_velocity(v, [-0.5, 0.5, 0.0], "far off the axis, on station");
 }
 
@@ -73,14 +75,17 @@ fn the_contact_approach_closes_at_the_contact_speed_on_the_offset_with_feed_forw
     // move 0.3 right and 0.1 up; its forward speed 0.1 adds to the 1 m/s contact speed. The
     // mean offset must not enter.
     let e = estimate([0.4, -2.0], [5.0, 5.0], 0.1, 2.0);
-    let v = desired_velocity(&e, [0.3, -0.1], Forward::Contact, &rc, &lim);
+    let v = desired_velocity(&e, [0.3, -0.1], Forward::Contact, 1.0, &rc, &lim);
     assert_velocity(v, [0.5, -0.6, 1.1], "contact");
+    // The rough-air contact speed, 1.3 m/s, is the one given.
+    let v = desired_velocity(&e, [0.3, -0.1], Forward::Contact, 1.3, &rc, &lim);
+    assert_velocity(v, [0.5, -0.6, 1.4], "contact, rough air");
     // Half the feed-forward: 0.15 right, 0.05 up from the prediction.
     let half = RefuellingConfig {
         feedforward_gain: 0.5,
         ..rc
     };
-    let v = desired_velocity(&e, [0.3, -0.1], Forward::Contact, &half, &lim);
+    let v = desired_velocity(&e, [0.3, -0.1], Forward::Contact, 1.0, &half, &lim);
     assert_velocity(v, [0.35, -0.55, 1.1], "half feed-forward");
 }
 
@@ -98,6 +103,7 @@ fn the_capture_gain_rises_to_one_over_the_time_to_go_within_its_floor() {
             &estimate(offset, [0.0; 2], 0.0, depth),
             [0.0; 2],
             Forward::Capture,
+            0.8,
             &rc,
             &lim,
         )
@@ -117,6 +123,7 @@ fn the_capture_gain_rises_to_one_over_the_time_to_go_within_its_floor() {
         &estimate(offset, [0.0; 2], 0.0, 0.4),
         [0.0; 2],
         Forward::Contact,
+        0.8,
         &rc,
         &lim,
     );
@@ -126,25 +133,29 @@ fn the_capture_gain_rises_to_one_over_the_time_to_go_within_its_floor() {
 #[test]
 fn the_missed_approach_backs_off_and_descends_on_the_mean_offset() {
     let (rc, lim) = (RefuellingConfig::default(), limits());
-    // 1 m/s aft relative to a drogue moving 0.2 m/s forward: -0.8; 0.5 m/s down added to
-    // the mean offset's 0.5 * 0.4 = 0.2 down; no feed-forward.
+    // 1 m/s aft relative to the tanker (the drogue's 0.2 m/s forward left out); 0.5 m/s
+    // down added to the mean offset's 0.5 * 0.4 = 0.2 down; no feed-forward.
     let e = estimate([1.0, 1.0], [-0.2, 0.4], 0.2, 2.0);
-    let v = desired_velocity(&e, [0.3, 0.3], Forward::Clear, &rc, &lim);
-    assert_velocity(v, [-0.1, 0.7, -0.8], "clear");
+    let v = desired_velocity(&e, [0.3, 0.3], Forward::Clear, 1.0, &rc, &lim);
+    assert_velocity(v, [-0.1, 0.7, -1.0], "clear");
 }
 
 #[test]
 fn every_axis_is_saturated_to_the_velocity_limits() {
     let (rc, lim) = (RefuellingConfig::default(), limits());
-    // A drogue predicted to move 3 m/s right and 3 m/s up, and surging 1 m/s forward on top
-    // of the 1.5 m/s station speed: each axis at its 2 m/s limit.
-    let e = estimate([0.0; 2], [0.0; 2], 1.0, 10.0);
-    let v = desired_velocity(&e, [3.0, -3.0], Forward::Contact, &rc, &lim);
+    // A drogue predicted to move 3 m/s right and 3 m/s up, and surging 1.5 m/s forward on
+    // top of the 1 m/s contact speed: each axis at its 2 m/s limit.
+    let e = estimate([0.0; 2], [0.0; 2], 1.5, 10.0);
+    let v = desired_velocity(&e, [3.0, -3.0], Forward::Contact, 1.0, &rc, &lim);
     assert_velocity(v, [2.0, -2.0, 2.0], "contact, saturated");
-    let v = desired_velocity(&e, [3.0, -3.0], Forward::Station, &rc, &lim);
-    assert_velocity(v, [0.0, 0.0, 2.0], "station, saturated forward");
-    // Clearing from a drogue surging 1.5 m/s aft: -2.5 limited to -2.
-    let e = estimate([0.0; 2], [0.0; 2], -1.5, 2.0);
-    let v = desired_velocity(&e, [0.0; 2], Forward::Clear, &rc, &lim);
+    // On station the surge is left out: the station's own 1.5 m/s.
+    let v = desired_velocity(&e, [3.0, -3.0], Forward::Station, 1.0, &rc, &lim);
+    assert_velocity(v, [0.0, 0.0, 1.5], "station, its own limit");
+    // Clearing at a configured 3 m/s aft: limited to -2.
+    let fast = RefuellingConfig {
+        missed_aft_mps: 3.0,
+        ..rc
+    };
+    let v = desired_velocity(&e, [0.0; 2], Forward::Clear, 1.0, &fast, &lim);
     assert_velocity(v, [0.0, 0.5, -2.0], "clear, saturated aft");
 }
