@@ -249,3 +249,51 @@ fn the_measured_psd_starts_at_the_configured_one() {
         );
     }
 }
+
+#[test]
+fn started_until_stopped_and_stopped_it_reads_zero() {
+    let cfg = EstimatorConfig::default();
+    let mut e = DrogueEstimator::default();
+    assert!(!e.started());
+    e.start(
+        &TipFrame {
+            drogue_from_tip_m: [0.3, -0.2, 3.0],
+            camera_depth_m: 3.0,
+        },
+        &cfg,
+    );
+    assert!(e.started());
+    assert_eq!(e.estimate().depth_m, 3.0);
+    e.stop();
+    assert!(!e.started());
+    assert_eq!(e.estimate(), Default::default());
+}
+
+#[test]
+fn the_innovation_gate_is_gate_sigmas_standard_deviations() {
+    // The innovation's variance is the predicted offset's plus the frame's; a frame 5σ off
+    // (inside the 6σ gate) is used, 7σ off is rejected.
+    let cfg = EstimatorConfig::default();
+    assert_eq!(cfg.gate_sigmas, 6.0);
+    let m = EstimatorModel::new(&cfg, TS);
+    let z = 3.0_f32;
+    let start = TipFrame {
+        drogue_from_tip_m: [0.0, 0.0, z],
+        camera_depth_m: z,
+    };
+    let r = cfg.offset_noise_m + cfg.offset_noise_per_m * z;
+    for (sigmas, rejected) in [(5.0_f32, false), (-5.0, false), (7.0, true), (-7.0, true)] {
+        let mut e = DrogueEstimator::default();
+        e.start(&start, &cfg);
+        e.predict([0.0; 3], &m);
+        let s = e.offset_variance_m2()[0] + r * r;
+        let c = e.correct(
+            &TipFrame {
+                drogue_from_tip_m: [sigmas * s.sqrt(), 0.0, z],
+                camera_depth_m: z,
+            },
+            &cfg,
+        );
+        assert_eq!(c.rejected, rejected, "{sigmas} sigma");
+    }
+}
