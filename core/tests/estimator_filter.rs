@@ -8,7 +8,7 @@
 //! with variance `(σ0 + σ1 z)²` (depth: `(σd0 + σd2 z²)²`); a prediction `h` ahead adds
 //! the process noise over `h` at the measured PSD (at the start, the configured one).
 
-use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, TipFrame};
+use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, Restart, TipFrame};
 
 const TS: f32 = 0.02;
 
@@ -296,4 +296,60 @@ fn the_innovation_gate_is_gate_sigmas_standard_deviations() {
         );
         assert_eq!(c.rejected, rejected, "{sigmas} sigma");
     }
+}
+
+#[test]
+fn after_max_rejections_in_a_row_the_next_rejected_frame_restarts_the_filter() {
+    // A drogue that jumped 2 m: the frames are rejected, `max_rejections` (5) of them
+    // without a restart; the one after restarts the filter from it.
+    let cfg = EstimatorConfig::default();
+    assert_eq!(cfg.max_rejections, 5);
+    let m = EstimatorModel::new(&cfg, TS);
+    let mut e = DrogueEstimator::default();
+    e.start(
+        &TipFrame {
+            drogue_from_tip_m: [0.0, 0.0, 3.0],
+            camera_depth_m: 3.0,
+        },
+        &cfg,
+    );
+    let jumped = TipFrame {
+        drogue_from_tip_m: [2.0, 0.0, 3.0],
+        camera_depth_m: 3.0,
+    };
+    for k in 1..=5 {
+        e.predict([0.0; 3], &m);
+        let c = e.correct(&jumped, &cfg);
+        assert!(c.rejected && c.restarted.is_none(), "frame {k}: {c:?}");
+    }
+    e.predict([0.0; 3], &m);
+    let c = e.correct(&jumped, &cfg);
+    assert_eq!(c.restarted, Some(Restart::Rejections));
+    assert_eq!(e.estimate().offset_m[0], 2.0);
+}
+
+#[test]
+fn a_non_finite_update_restarts_the_filter() {
+    // The invariant of the module doc: the state stays finite; an update that is not (a NaN
+    // in the frame: the controller's validation lets none through) restarts it.
+    let cfg = EstimatorConfig::default();
+    let m = EstimatorModel::new(&cfg, TS);
+    let mut e = DrogueEstimator::default();
+    e.start(
+        &TipFrame {
+            drogue_from_tip_m: [0.0, 0.0, 3.0],
+            camera_depth_m: 3.0,
+        },
+        &cfg,
+    );
+    e.predict([0.0; 3], &m);
+    let c = e.correct(
+        &TipFrame {
+            drogue_from_tip_m: [f32::NAN, 0.0, 3.0],
+            camera_depth_m: 3.0,
+        },
+        &cfg,
+    );
+    assert!(!c.rejected);
+    assert_eq!(c.restarted, Some(Restart::NonFinite));
 }
