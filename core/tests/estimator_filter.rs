@@ -156,13 +156,8 @@ fn the_filter_is_the_documented_kalman_filter() {
         close(est.offset_m[0], reference[0].x[0], 1e-4, &what("right"));
         close(est.offset_m[1], reference[1].x[0], 1e-4, &what("down"));
         close(est.depth_m, reference[2].x[0], 1e-4, &what("depth"));
-        for i in 0..3 {
-            close(
-                est.drogue_velocity_mps[i],
-                reference[i].x[1],
-                1e-3,
-                &what("velocity"),
-            );
+        for (v, a) in est.drogue_velocity_mps.iter().zip(&reference) {
+            close(*v, a.x[1], 1e-3, &what("velocity"));
         }
         close(est.mean_offset_m[0], mean[0], 1e-4, &what("mean right"));
         close(est.mean_offset_m[1], mean[1], 1e-4, &what("mean down"));
@@ -194,7 +189,7 @@ fn the_filter_is_the_documented_kalman_filter() {
         let p = e.predict_offset(h, [0.2, 0.1], &m);
         for i in 0..2 {
             let mut a = reference[i];
-            a.predict(tau, f64::from(psd_now[i]), f64::from(h), [0.2, 0.1][i]);
+            a.predict(tau, psd_now[i], f64::from(h), [0.2, 0.1][i]);
             close(
                 p[i].mean_m,
                 a.x[0],
