@@ -348,3 +348,69 @@ fn a_non_finite_update_restarts_the_filter() {
     assert!(!c.rejected);
     assert_eq!(c.restarted, Some(Restart::NonFinite));
 }
+
+#[test]
+fn an_innovation_exactly_on_the_gate_is_used() {
+    // "Beyond gate_sigmas standard deviations" is strict: an innovation whose square is
+    // exactly gate_sigmas² times its variance is used. From a start at zero offset (the
+    // prediction keeps it at zero exactly: the drogue at rest, the tip still), the innovation
+    // is the frame's offset itself; search the floats near 6σ for one whose square is the
+    // threshold, exactly as the filter computes both.
+    let cfg = EstimatorConfig::default();
+    let m = EstimatorModel::new(&cfg, TS);
+    let g2 = cfg.gate_sigmas * cfg.gate_sigmas;
+    let mut found = 0;
+    for z in [2.0_f32, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5] {
+        let mut e = DrogueEstimator::default();
+        e.start(
+            &TipFrame {
+                drogue_from_tip_m: [0.0, 0.0, z],
+                camera_depth_m: z,
+            },
+            &cfg,
+        );
+        e.predict([0.0; 3], &m);
+        assert_eq!(e.estimate().offset_m[0], 0.0);
+        let r = cfg.offset_noise_m + cfg.offset_noise_per_m * z;
+        let limit = g2 * (e.offset_variance_m2()[0] + r * r);
+        let centre = limit.sqrt().to_bits();
+        let Some(nu) = (centre - 64..centre + 64)
+            .map(f32::from_bits)
+            .find(|nu| nu * nu == limit)
+        else {
+            continue;
+        };
+        found += 1;
+        let c = e.correct(
+            &TipFrame {
+                drogue_from_tip_m: [nu, 0.0, z],
+                camera_depth_m: z,
+            },
+            &cfg,
+        );
+        assert!(!c.rejected, "z {z}: on the gate");
+        // One float beyond is rejected (a fresh filter in the same state).
+        let mut e2 = DrogueEstimator::default();
+        e2.start(
+            &TipFrame {
+                drogue_from_tip_m: [0.0, 0.0, z],
+                camera_depth_m: z,
+            },
+            &cfg,
+        );
+        e2.predict([0.0; 3], &m);
+        let beyond = f32::from_bits(nu.to_bits() + 1);
+        let c = e2.correct(
+            &TipFrame {
+                drogue_from_tip_m: [beyond, 0.0, z],
+                camera_depth_m: z,
+            },
+            &cfg,
+        );
+        assert!(c.rejected, "z {z}: beyond the gate");
+    }
+    assert!(
+        found > 0,
+        "no depth gave an exactly representable threshold"
+    );
+}
