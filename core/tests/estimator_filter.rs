@@ -78,8 +78,21 @@ fn close(got: f32, want: f64, rel: f64, what: &str) {
 
 #[test]
 fn the_filter_is_the_documented_kalman_filter() {
+    against_the_reference(TS);
+}
+
+#[test]
+fn the_discretisation_is_exact_at_a_period_beyond_one_and_a_half_time_constants() {
+    // 3.2 s: 2.5 lateral and 1.6 forward time constants, where the process noise is the
+    // closed form (below 1.5 its series); the filter must still be the reference.
+    against_the_reference(3.2);
+}
+
+/// Runs the estimator and the reference side by side at the period `ts_s`: every estimate,
+/// variance, average and prediction must agree.
+fn against_the_reference(ts_s: f32) {
     let cfg = EstimatorConfig::default();
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, ts_s);
     let (tau, psd) = (
         f64::from(cfg.drogue_time_constant_s),
         f64::from(cfg.drogue_accel_psd_m2ps3),
@@ -101,7 +114,9 @@ fn the_filter_is_the_documented_kalman_filter() {
             camera_depth_m: 3.0 - 0.5 * t,
         }
     };
-    let tip = |k: usize| [0.05 * (k % 4) as f32, -0.02, 0.4];
+    // The tip's velocity, scaled so that it moves as far in a period whatever the period.
+    let per = 0.02 / ts_s;
+    let tip = |k: usize| [0.05 * (k % 4) as f32 * per, -0.02 * per, 0.4 * per];
     let noise = |z: f64| {
         let r = f64::from(cfg.offset_noise_m) + f64::from(cfg.offset_noise_per_m) * z;
         let d = f64::from(cfg.depth_noise_m) + f64::from(cfg.depth_noise_per_m2) * z * z;
@@ -119,7 +134,7 @@ fn the_filter_is_the_documented_kalman_filter() {
     // The averages (module doc): after each prediction, the drogue velocity's square into
     // the activity over `activity_time_constant_s` (from q τ / 2), the offset into the mean
     // offset over `mean_time_constant_s` (from the first frame).
-    let ts = f64::from(TS);
+    let ts = f64::from(ts_s);
     let activity_step = ts / f64::from(cfg.activity_time_constant_s);
     let mean_step = ts / f64::from(cfg.mean_time_constant_s);
     let mut activity = [psd * tau / 2.0; 2];
@@ -152,7 +167,7 @@ fn the_filter_is_the_documented_kalman_filter() {
             }
         }
         let est = e.estimate();
-        let what = |s: &str| format!("step {k}: {s}");
+        let what = |s: &str| format!("period {ts_s} s, step {k}: {s}");
         close(est.offset_m[0], reference[0].x[0], 1e-4, &what("right"));
         close(est.offset_m[1], reference[1].x[0], 1e-4, &what("down"));
         close(est.depth_m, reference[2].x[0], 1e-4, &what("depth"));
