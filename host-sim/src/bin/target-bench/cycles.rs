@@ -356,7 +356,7 @@ fn row(mnemonic: &str) -> Option<(&str, Kind)> {
 }
 
 /// The registers of a `{...}` list: 32-bit words (a `d` register is two).
-fn list_words(operands: &str) -> u64 {
+pub fn list_words(operands: &str) -> u64 {
     let list = operands
         .split('{')
         .nth(1)

@@ -461,27 +461,6 @@ fn access_bytes(base: &str, operands: &[&str]) -> u64 {
     }
 }
 
-/// The words of a register list (`{r4, r5}`, `{d8-d9}`: a `d` register is two).
-fn list_words(list: &str) -> u64 {
-    let inner = list.trim().trim_start_matches('{').trim_end_matches('}');
-    inner
-        .split(',')
-        .map(str::trim)
-        .filter(|r| !r.is_empty())
-        .map(|r| {
-            let words = if r.starts_with('d') { 2 } else { 1 };
-            let count = match r.split_once('-') {
-                Some((a, b)) => {
-                    let n = |x: &str| x.get(1..).and_then(|d| d.parse::<u64>().ok()).unwrap_or(0);
-                    n(b).saturating_sub(n(a)) + 1
-                }
-                None => 1,
-            };
-            words * count
-        })
-        .sum()
-}
-
 /// Where the data access of `line` goes, from the state before it; `None` when it makes none.
 fn place(line: &Line, s: &State) -> Option<Region> {
     let (base, _) = cycles::base(&line.mnemonic)?;
@@ -503,7 +482,7 @@ fn place(line: &Line, s: &State) -> Option<Region> {
         "ldm" | "ldmia" | "ldmfd" | "ldmdb" | "ldmea" | "stm" | "stmia" | "stmea" | "stmdb"
         | "stmfd" | "vldm" | "vldmia" | "vldmdb" | "vstm" | "vstmia" | "vstmdb" => {
             let b = register(ops.first()?.trim_end_matches('!'))?;
-            let bytes = 4 * i64::try_from(list_words(ops.get(1)?)).ok()?;
+            let bytes = 4 * i64::try_from(crate::cycles::list_words(ops.get(1)?)).ok()?;
             let down = base.ends_with("db") || base == "ldmea" || base == "stmfd";
             Some(if b == SP {
                 Region::Stack
