@@ -321,6 +321,52 @@ enum Flow {
     Data,
 }
 
+/// The targets of a `tbb` (bytes) or `tbh` (halfwords) jump table at `base`, from the data
+/// lines that follow the instruction (`.byte`, `.short`, `.word`: 1, 2, 4 bytes,
+/// little-endian): each the table's address plus twice its entry. The table runs from `base`
+/// up to its lowest target (its targets follow it), and a Thumb `nop` (0xBF00) at an even
+/// address just before that is the alignment padding of the code after it, not two entries.
+/// Entries that land elsewhere than on an instruction are dropped by the caller.
+fn table_targets(base: u64, halfwords: bool, data: &[&Line]) -> Vec<u64> {
+    let mut bytes = Vec::new();
+    for w in data {
+        let v = u64::from_str_radix(w.operands.trim().trim_start_matches("0x"), 16).unwrap_or(0);
+        let width = match w.mnemonic.as_str() {
+            ".byte" => 1,
+            ".short" | ".hword" | ".2byte" => 2,
+            _ => 4,
+        };
+        bytes.extend((0..width).map(|k| (w.addr + k, (v >> (8 * k)) & 0xFF)));
+    }
+    let step = if halfwords { 2 } else { 1 };
+    let mut entries: Vec<(u64, u64)> = bytes
+        .chunks_exact(step)
+        .map(|c| (c[0].0, c.iter().rev().fold(0, |e, &(_, b)| (e << 8) | b)))
+        .collect();
+    let mut end = u64::MAX;
+    let mut n = 0;
+    for &(at, e) in &entries {
+        if at >= end {
+            break;
+        }
+        if e != 0 {
+            end = end.min(base + 2 * e);
+        }
+        n += 1;
+    }
+    entries.truncate(n);
+    let padding = |a: &(u64, u64), b: &(u64, u64)| {
+        a.0.is_multiple_of(2) && a.1 == 0x00 && b.1 == 0xBF && b.0 + 1 == end
+    };
+    if !halfwords
+        && let [.., a, b] = entries.as_slice()
+        && padding(a, b)
+    {
+        entries.truncate(entries.len() - 2);
+    }
+    entries.into_iter().map(|(_, e)| base + 2 * e).collect()
+}
+
 fn flow(line: &Line, table: impl Fn() -> Vec<u64>) -> Flow {
     let m = strip_width(&line.mnemonic);
     if m.starts_with('.') {
@@ -901,21 +947,8 @@ impl Disassembly {
             let line = &lines[i];
             let next = (i + 1..n).find(|&j| !lines[j].is_data());
             let table = || {
-                // Halfwords (tbh) or bytes (tbb) from the `.word`s that follow; targets are
-                // the table's address plus twice the entry. Entries landing elsewhere than on
-                // an instruction of this function are padding.
-                let base = line.addr + 4;
-                let mut entries = Vec::new();
-                for w in lines[i + 1..].iter().take_while(|l| l.is_data()) {
-                    let v =
-                        u64::from_str_radix(w.operands.trim_start_matches("0x"), 16).unwrap_or(0);
-                    if line.mnemonic.starts_with("tbh") {
-                        entries.extend([v & 0xFFFF, v >> 16]);
-                    } else {
-                        entries.extend((0..4).map(|k| (v >> (8 * k)) & 0xFF));
-                    }
-                }
-                entries.into_iter().map(|e| base + 2 * e).collect()
+                let data: Vec<&Line> = lines[i + 1..].iter().take_while(|l| l.is_data()).collect();
+                table_targets(line.addr + 4, line.mnemonic.starts_with("tbh"), &data)
             };
             let function_at = |target: u64, what: &str| -> Result<u64, String> {
                 if self.functions.contains_key(&target) {
@@ -1721,8 +1754,8 @@ mod tests {
     fn longest_path_takes_calls_and_tables() {
         let d = Disassembly::parse(SAMPLE);
         assert_eq!(instructions(&d, "leaf", Rules::default()), Ok(6));
-        // push, cbz, bl (+6), tbb, then the table's targets (0x11a, 0x11c, 0x118: only 0x11c
-        // is an instruction): movs, pop.
+        // push, cbz, bl (+6), tbb, then the table's targets (entries 1 and 2 before the
+        // lowest target: 0x11a, 0x11c; only 0x11c is an instruction): movs, pop.
         let b = d
             .bound("root", Rules::default(), Metric::Instructions)
             .expect("root");
@@ -1739,6 +1772,33 @@ mod tests {
             )
             .expect("root");
         assert_eq!(without.excluded_calls, ["leaf"]);
+    }
+
+    #[test]
+    fn a_jump_table_ends_at_its_lowest_target_and_its_nop_padding_is_no_entry() {
+        // A tbb table of four entries (3, 0xdd, 0x6f, 0x99) and the nop (0xbf00) that aligns
+        // the code after it, as objdump prints them: a `.short` and a `.word`. Read as four
+        // bytes a line, or with the nop as two entries, it would add 0x..60e + 2 * 0xbf.
+        let line = |addr, mnemonic: &str, operands: &str| Line {
+            addr,
+            size: 0,
+            mnemonic: mnemonic.to_string(),
+            operands: operands.to_string(),
+        };
+        let short = line(0x800_260e, ".short", "0xdd03");
+        let word = line(0x800_2610, ".word", "0xbf00996f");
+        let base = 0x800_260e;
+        assert_eq!(
+            table_targets(base, false, &[&short, &word]),
+            [base + 6, base + 2 * 0xdd, base + 2 * 0x6f, base + 2 * 0x99]
+        );
+        // Without the nop (0x1100 is no instruction of padding), the two bytes before the
+        // lowest target are entries too.
+        let word = line(0x800_2610, ".word", "0x1100996f");
+        assert_eq!(table_targets(base, false, &[&short, &word]).len(), 6);
+        // Halfwords: 0x0003, 0x0010, then code from base + 6.
+        let word = line(base, ".word", "0x00100003");
+        assert_eq!(table_targets(base, true, &[&word]), [base + 6, base + 0x20]);
     }
 
     #[test]
