@@ -78,6 +78,7 @@
 pub mod actuator;
 pub mod config;
 pub mod controller;
+pub mod crc32c;
 pub mod design;
 pub mod estimator;
 pub mod frames;

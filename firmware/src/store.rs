@@ -37,7 +37,7 @@
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
 use ibvs_core::ControllerConfig;
 use ibvs_core::wire::{
-    CRC32C, ConfigStorage, MAX_BODY_LEN, PROTOCOL_VERSION, config_from_bytes, config_to_bytes,
+    ConfigStorage, MAX_BODY_LEN, PROTOCOL_VERSION, config_from_bytes, config_to_bytes, crc32c,
 };
 
 #[cfg(doc)]
@@ -250,7 +250,7 @@ impl<F: NorFlash> ConfigStore<F> {
         let Some(data) = buf.get(..HEADER_LEN + len) else {
             return (SlotState::Invalid, None);
         };
-        if CRC32C.checksum(data) != word(buf, HEADER_LEN + len) {
+        if crc32c(data) != word(buf, HEADER_LEN + len) {
             return (SlotState::Invalid, None);
         }
         let cfg = match buf.get(HEADER_LEN..HEADER_LEN + len).map(config_from_bytes) {
@@ -309,7 +309,7 @@ fn encode_record(
     header[8..12].copy_from_slice(&generation.to_le_bytes());
     header[12..16].copy_from_slice(&(len as u32).to_le_bytes());
     let data = buf.get(..HEADER_LEN + len).ok_or(StoreError::Encode)?;
-    let crc = CRC32C.checksum(data);
+    let crc = crc32c(data);
     buf.get_mut(HEADER_LEN + len..HEADER_LEN + len + 4)
         .ok_or(StoreError::Encode)?
         .copy_from_slice(&crc.to_le_bytes());

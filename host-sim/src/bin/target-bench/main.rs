@@ -349,6 +349,9 @@ struct BoardReport {
     decode_instructions: Option<u32>,
     /// The dearest command frame encode.
     encode_instructions: Option<u32>,
+    /// The control cycle's worst case over the recorded dockings: the dearest decode, step
+    /// and encode added (each the maximum over every frame, so at least any one frame's).
+    control_instructions: Option<u32>,
     /// The control path's stack high-water mark, bytes.
     stack_bytes: Option<u32>,
     /// The step's stack from its machine code: its frame and its deepest callee's (`null`
@@ -507,9 +510,19 @@ fn f405_elf(arg: Option<PathBuf>) -> Result<PathBuf, Error> {
     }
 }
 
+/// The control cycle's figure ([`BoardReport::control_instructions`]): the maxima of the
+/// decodes, the steps and the encodes added; `None` when any is missing.
+fn control_instructions(decode: &[u32], step: &[u32], encode: &[u32]) -> Option<u32> {
+    let max = |v: &[u32]| v.iter().max().copied();
+    Some(max(decode)? + max(step)? + max(encode)?)
+}
+
 /// The hard budgets the expectations file must hold (`BOARD.METRIC`): flash and static RAM on
-/// both boards, the control path's stack measured (`qemu`) and bounded (both).
-const BUDGETS: [&str; 7] = [
+/// both boards, the control path's stack measured (`qemu`) and bounded (both), and the
+/// control cycle (decode + step + encode) at the cost of the same cycle in plain C
+/// (docs/benchmarks.md, "The codec").
+const BUDGETS: [&str; 8] = [
+    "qemu.control_instructions",
     "qemu.flash_bytes",
     "f405.flash_bytes",
     "qemu.ram_bytes",
@@ -546,6 +559,7 @@ const GUARDED: &[(&str, &str, &[&str])] = &[
     // workload twice and fails unless every figure is identical).
     ("qemu", "decode_instructions", &["decode_instructions"]),
     ("qemu", "encode_instructions", &["encode_instructions"]),
+    ("qemu", "control_instructions", &["control_instructions"]),
     ("qemu", "stack_bytes", &["stack_bytes"]),
     // The step's static stack (its frame and its deepest callee's: the f405 board's only
     // stack figure), which must exist like the other static bounds.
@@ -705,6 +719,7 @@ impl Static {
             assumptions: t.map(|_| task::assumptions(self.schedule)),
             decode_instructions: None,
             encode_instructions: None,
+            control_instructions: None,
             stack_bytes: None,
             stack_bytes_bound: self.step.as_ref().ok().map(|b| b.stack_bytes),
             flash_bytes: 0,
@@ -857,6 +872,7 @@ fn run(args: Args) -> Result<bool, Error> {
             step_instructions: Spread::of(&all_step),
             decode_instructions: all_decode.iter().max().copied(),
             encode_instructions: all_encode.iter().max().copied(),
+            control_instructions: control_instructions(&all_decode, &all_step, &all_encode),
             stack_bytes: (!args.no_pil).then_some(control_stack),
             flash_bytes: qemu_sizes.flash_bytes,
             ram_bytes: qemu_sizes.ram_bytes,
@@ -866,6 +882,7 @@ fn run(args: Args) -> Result<bool, Error> {
             step_instructions: None,
             decode_instructions: None,
             encode_instructions: None,
+            control_instructions: None,
             stack_bytes: None,
             flash_bytes: f405_sizes.flash_bytes,
             ram_bytes: f405_sizes.ram_bytes,
@@ -949,6 +966,7 @@ mod tests {
                 "cycle_us_bound": 476.2,
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
+                "control_instructions": 10800,
                 "stack_bytes": 276,
                 "stack_bytes_bound": 300,
                 "flash_bytes": flash,
@@ -970,6 +988,7 @@ mod tests {
                 "step_instructions_bound": 1100,
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
+                "control_instructions": 10800,
                 "stack_bytes": 276,
                 "stack_bytes_bound": 300,
                 "flash_bytes": 60000,
@@ -992,6 +1011,7 @@ mod tests {
                 "cycle_us_bound": 476.2,
             },
             "budgets": {
+                "qemu.control_instructions": 12000,
                 "qemu.flash_bytes": flash_budget,
                 "f405.flash_bytes": flash_budget,
                 "qemu.ram_bytes": 16384,
@@ -1120,6 +1140,22 @@ mod tests {
         r["f405"]["ram_bytes"] = json!(16385);
         let got = check(&r, &high.0).expect("check");
         assert_eq!(got, ["f405.ram_bytes: 16385 > budget 16384"]);
+    }
+
+    #[test]
+    fn the_control_cycle_adds_the_dearest_decode_step_and_encode() {
+        assert_eq!(
+            control_instructions(&[10, 30, 20], &[5, 7], &[100, 1]),
+            Some(30 + 7 + 100)
+        );
+        assert_eq!(control_instructions(&[], &[5], &[1]), None);
+        // Over its budget, the cycle fails whatever its expectation says.
+        let mut r = report(800, Some(1100), 60_000);
+        r["qemu"]["control_instructions"] = json!(12_001);
+        let mut e = expectations_value(131_072);
+        e["qemu"]["control_instructions"] = json!(13_000);
+        let got = check(&r, &tempfile_path::write(&e).0).expect("checked");
+        assert_eq!(got, ["qemu.control_instructions: 12001 > budget 12000"]);
     }
 
     #[test]
