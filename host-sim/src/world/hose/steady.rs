@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 use super::dynamics::{Model, Workspace};
 use super::params::{HoseError, HoseParams};
 use super::vector::{all_finite, unit_or};
-use super::{HoseDrogue, MaxTension, max_abs};
+use super::{HoseDrogue, MaxTension};
 
 /// Steady trail: outer (air resampling) iterations at most.
 const STEADY_MAX_OUTER_ITERATIONS: usize = 200;
@@ -96,7 +96,7 @@ impl HoseDrogue {
                 residual_accel_mps2: residual_accel,
             });
         }
-        hose.max_tension = MaxTension::Exact(max_abs(&hose.tensions_from(&hose.ws)));
+        hose.max_tension = MaxTension::Exact(hose.max_tension_of(&hose.ws));
         Ok(hose)
     }
 
