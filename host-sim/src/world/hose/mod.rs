@@ -42,7 +42,7 @@
 //!   call (the state the last call ended in, with that call's air and force). The tensions
 //!   of the last RK4 stage, at a state one stage away with the same air and force, estimate
 //!   it; the exact tension solve (one more evaluation of the accelerations, a fifth of a
-//!   step's cost) is made only when 1.5 times the estimate ([`TENSION_ESTIMATE_MARGIN`])
+//!   step's cost) is made only when 1.5 times the estimate (`TENSION_ESTIMATE_MARGIN`)
 //!   could need more internal steps than the step length alone. The number of internal
 //!   steps, and so every state, is then the one the exact tensions give, as long as they are
 //!   below 1.5 times the estimate (they are within 1e-4 of it in strong gusts with a jumping
