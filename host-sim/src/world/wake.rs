@@ -284,8 +284,23 @@ impl Horseshoe {
     fn leg_factor(&self, xi: f64, r_sq: f64, rc_sq: f64, four_nu_t: f64) -> f64 {
         let l = (xi * xi + r_sq).sqrt();
         let semi = if l > 0.0 { 0.5 * (1.0 + xi / l) } else { 0.5 };
-        let viscous = -(-r_sq / four_nu_t).exp_m1();
+        let viscous = saturating_one_minus_exp(-r_sq / four_nu_t);
         self.gamma_2pi / (r_sq + rc_sq) * viscous * semi
+    }
+}
+
+/// Below this argument `exp_m1` is -1 to the last bit: `e^x < 2^-57`, under half an ulp of 1
+/// (2^-54), so the correctly rounded `e^x - 1` is -1 (glibc's `expm1` returns -1 below
+/// -56 ln 2 = -38.8 without computing; tested).
+const EXP_M1_IS_MINUS_ONE_BELOW: f64 = -40.0;
+
+/// `1 - e^x` for `x <= 0` as `-exp_m1(x)`, bit for bit, without the call where it is 1 (far
+/// outside a vortex's core: the tail's vortices everywhere along the hose).
+fn saturating_one_minus_exp(x: f64) -> f64 {
+    if x < EXP_M1_IS_MINUS_ONE_BELOW {
+        1.0
+    } else {
+        -x.exp_m1()
     }
 }
 
@@ -386,6 +401,39 @@ mod tests {
     /// F-16 span and length, m (30 ft, about 15 m).
     const F16_SPAN_M: f64 = 9.144;
     const F16_LENGTH_M: f64 = 15.0;
+
+    #[test]
+    fn the_saturated_viscous_factor_is_the_exp_m1_one() {
+        // At the threshold, beyond it, and far out: exp_m1 itself is -1 there.
+        let mut x = EXP_M1_IS_MINUS_ONE_BELOW;
+        while x > -1e6 {
+            assert_eq!((-x.exp_m1()).to_bits(), 1.0_f64.to_bits(), "{x}");
+            assert_eq!(
+                saturating_one_minus_exp(x).to_bits(),
+                (-x.exp_m1()).to_bits(),
+                "{x}"
+            );
+            x = x * 1.001 - 1e-3;
+        }
+        for x in [
+            f64::NEG_INFINITY,
+            -40.0,
+            -39.999,
+            -30.0,
+            -1.0,
+            -1e-9,
+            -0.0,
+            f64::NAN,
+        ] {
+            assert_eq!(
+                saturating_one_minus_exp(x).to_bits(),
+                (-x.exp_m1()).to_bits(),
+                "{x}"
+            );
+        }
+        // Below 1 just above the threshold: the shortcut is only where nothing is lost.
+        assert!(saturating_one_minus_exp(-36.0) < 1.0);
+    }
 
     fn wake() -> TankerWake {
         TankerWake::new(WakeParams::default()).unwrap()

@@ -23,6 +23,7 @@ impl Model {
 
     /// Aerodynamic force on a whole link, N, for the air velocity relative to the link `rel`
     /// (m/s) and the unit vector along it `e`.
+    #[inline(always)]
     pub(super) fn link_aero(&self, rel: Vector3<f64>, e: Vector3<f64>) -> Vector3<f64> {
         let v_t = rel.dot(&e);
         let v_n = rel - e * v_t;

@@ -14,10 +14,10 @@
 
 use nalgebra::Vector3;
 
-use super::HoseDrogue;
 use super::dynamics::{Model, Workspace};
 use super::params::{HoseError, HoseParams};
 use super::vector::{all_finite, unit_or};
+use super::{HoseDrogue, MaxTension};
 
 /// Steady trail: outer (air resampling) iterations at most.
 const STEADY_MAX_OUTER_ITERATIONS: usize = 200;
@@ -70,8 +70,9 @@ impl HoseDrogue {
             model,
             pos: vec![Vector3::zeros(); n + 1],
             vel: vec![Vector3::zeros(); n + 1],
-            tensions_n: vec![0.0; n],
+            max_tension: MaxTension::Exact(0.0),
             air: vec![Vector3::zeros(); n + 1],
+            force: *drogue_force_tanker_n,
             ws: Workspace::new(n),
         };
         let force = *drogue_force_tanker_n;
@@ -95,7 +96,7 @@ impl HoseDrogue {
                 residual_accel_mps2: residual_accel,
             });
         }
-        hose.store_tensions();
+        hose.max_tension = MaxTension::Exact(hose.max_tension_of(&hose.ws));
         Ok(hose)
     }
 
