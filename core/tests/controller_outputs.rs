@@ -11,7 +11,8 @@
 //! go/no-go gate's figure ("The go/no-go gate"): the offset predicted by the drogue
 //! estimator `t_go` ahead (the depth over the present closing speed, at most
 //! `gate_max_horizon_s`), its radial mean plus `gate_sigmas` standard deviations of the
-//! larger axis, in the approach and the capture only (infinite elsewhere).
+//! larger axis, in the approach and the capture only (infinite elsewhere); the saturation
+//! bits name exactly the channels held at a limit.
 
 use ibvs_core::config::ConfigProblem;
 use ibvs_core::controller::StatusFlags;
@@ -20,6 +21,7 @@ use ibvs_core::gains::TRIM;
 use ibvs_core::kinematics::point_velocity_tanker_mps;
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::nav::{FlightCondition, NavSample};
+use ibvs_core::procedure;
 use ibvs_core::schedule::design_at;
 use ibvs_core::{
     ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
@@ -367,6 +369,7 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
     let mut depth = 3.0_f32;
     let mut previous = Mode::Standby;
     let (mut checked_far, mut checked_near) = (0, 0);
+    let (mut contact, mut last) = (None, ControllerOutput::default());
     for k in 0..600 {
         let closing = if previous == Mode::PreContact {
             0.0
@@ -427,6 +430,11 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
         if !twin.started() && out.mode == Mode::PreContact {
             twin.start(&frame, &cfg.estimator);
         }
+        if previous == Mode::PreContact && out.mode == Mode::Approach {
+            // The approach's closing speed, chosen from the air as it starts.
+            contact = Some(procedure::contact_speed(twin.drogue_speed_rms_mps(), rc));
+        }
+        last = out;
         previous = out.mode;
         if depth < 0.1 {
             break;
@@ -437,4 +445,140 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
         checked_far > 50 && checked_near > 10,
         "{checked_far} far, {checked_near} near"
     );
+    // The capture closes at that speed relative to the drogue to its end: the estimator
+    // starts from the configured air's activity, rough enough at the approach's start here
+    // for the rough-air speed.
+    let contact = contact.expect("no approach flown");
+    assert_eq!(contact, rc.rough_air_contact_speed_mps);
+    assert_eq!(last.mode, Mode::Terminal);
+    let want = contact + last.estimate.drogue_velocity_mps[2];
+    assert!(
+        (last.v_des.z_fwd_mps - want).abs() < 0.02,
+        "{:?} vs {want}",
+        last.v_des
+    );
+}
+
+#[test]
+fn the_paper_procedure_has_no_gate_figure() {
+    let mut ctl = Controller::new(ControllerConfig::paper()).expect("valid configuration");
+    for seq in 1..30 {
+        let out = ctl.step(&ControllerInput {
+            measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+            nav: NavSample::default(),
+            probe_contact: false,
+            request: if seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            },
+        });
+        assert_eq!(out.mode, Mode::Approach);
+        assert_eq!(out.predicted_miss_m, f32::INFINITY, "step {seq}");
+    }
+}
+
+#[test]
+fn back_in_standby_the_refuelling_estimate_is_the_frame_itself_again() {
+    // Engaged and flown for a while, then reset: the drogue estimator stops, and standby
+    // reports the frame's own offset and depth with no velocity ("before engage the
+    // estimate is the frame itself"), not a filtered one.
+    let mut s = Sortie::to_approach();
+    for _ in 0..20 {
+        s.step([0.05, 0.02, 2.8], 0.0);
+    }
+    s.seq += 1;
+    let reset = s.ctl.step(&ControllerInput {
+        request: ModeRequest::Reset,
+        ..ControllerInput::default()
+    });
+    assert_eq!(reset.mode, Mode::Standby);
+    // A frame far from what the filter believed: 0.3 m right, 0.2 m up, 4 m ahead.
+    let out = s.step([0.3, -0.2, 4.0], 0.0);
+    assert_eq!(out.mode, Mode::Standby);
+    let e = out.estimate;
+    assert_eq!(e.drogue_velocity_mps, [0.0; 3]);
+    assert_eq!(e.offset_m, e.mean_offset_m);
+    // Within the rig's tracker noise (at most 4e-4 of the image, 2.7 mm at 6.7 m).
+    for (got, want) in [e.offset_m[0], e.offset_m[1], e.depth_m]
+        .iter()
+        .zip([0.3, -0.2, 4.0])
+    {
+        assert!((got - want).abs() < 3e-3, "{e:?}");
+    }
+}
+
+#[test]
+fn the_saturation_bits_name_exactly_the_channels_held_at_a_limit() {
+    let trim = TRIM.command();
+    // A small perturbation on both channels: every command moves off trim a little.
+    let mut nav = NavSample::default();
+    nav.lon.theta_rad = 0.01;
+    nav.lon.v_mps = 0.5;
+    nav.lat.phi_rad = 0.05;
+    nav.lat.r_radps = -0.02;
+    // Steps with one integrator frozen and not the other (the count is per step).
+    let mut one_frozen = 0;
+    for channel in 0..4 {
+        // That channel limited to a hair around trim, the others wide open.
+        let mut cfg = ControllerConfig::paper();
+        cfg.measurement.frozen_frame_limit = u16::MAX;
+        cfg.actuators.min[channel] = trim[channel] - 1e-6;
+        cfg.actuators.max[channel] = trim[channel] + 1e-6;
+        let mut ctl = Controller::new(cfg).expect("valid configuration");
+        let mut frozen_steps = 0;
+        let input = |seq, request| ControllerInput {
+            measurement: frame(seq, 0.05, -0.02, 6.0),
+            nav,
+            probe_contact: false,
+            request,
+        };
+        for seq in 1..40 {
+            let request = if seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            };
+            let out = ctl.step(&input(seq, request));
+            assert_eq!(out.mode, Mode::Approach);
+            let command = out.command.as_array();
+            let bits = [
+                StatusFlags::SATURATED_ELEVATOR,
+                StatusFlags::SATURATED_THROTTLE,
+                StatusFlags::SATURATED_AILERON,
+                StatusFlags::SATURATED_RUDDER,
+            ];
+            for (i, bit) in bits.into_iter().enumerate() {
+                let at_limit =
+                    command[i] == cfg.actuators.min[i] || command[i] == cfg.actuators.max[i];
+                assert_eq!(
+                    out.status.contains(bit),
+                    at_limit,
+                    "channel {channel} limited, step {seq}: channel {i} {command:?}, status {:#x}",
+                    out.status.0
+                );
+            }
+            let frozen = [
+                StatusFlags::LON_INTEGRATOR_FROZEN,
+                StatusFlags::LAT_INTEGRATOR_FROZEN,
+            ]
+            .map(|f| out.status.contains(f));
+            frozen_steps += u32::from(frozen[0] || frozen[1]);
+            one_frozen += u32::from(frozen[0] != frozen[1]);
+            assert!(
+                out.status.contains(bits[channel]),
+                "step {seq}: {:#x}",
+                out.status.0
+            );
+        }
+        // Every one of those steps, the engage included, counted as saturated; the steps
+        // with either integrator frozen counted as such, one count a step.
+        assert_eq!(ctl.counters().saturated_steps, 39, "channel {channel}");
+        assert_eq!(
+            ctl.counters().integrator_frozen_steps,
+            frozen_steps,
+            "channel {channel}"
+        );
+    }
+    assert!(one_frozen > 0, "never only one integrator frozen");
 }
