@@ -582,3 +582,96 @@ fn the_saturation_bits_name_exactly_the_channels_held_at_a_limit() {
     }
     assert!(one_frozen > 0, "never only one integrator frozen");
 }
+
+#[test]
+fn an_open_loop_breakaway_held_at_a_throttle_stop_reports_both() {
+    // The open-loop throttle cut (trim less `breakaway_throttle_cut`) below the throttle's
+    // lower limit: the command sits at the stop, and the step says both that it flies open
+    // loop and that the throttle saturated.
+    let mut cfg = ControllerConfig::paper();
+    cfg.actuators.min[1] = TRIM.throttle - 0.5 * cfg.modes.breakaway_throttle_cut;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let input = |seq, request, nav| ControllerInput {
+        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+        nav,
+        probe_contact: false,
+        request,
+    };
+    let trim_nav = NavSample::default();
+    assert_eq!(
+        ctl.step(&input(1, ModeRequest::Engage, trim_nav)).mode,
+        Mode::Approach
+    );
+    let mut bad_nav = trim_nav;
+    bad_nav.lon.v_mps = f32::INFINITY;
+    let out = ctl.step(&input(2, ModeRequest::Abort, bad_nav));
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.command.throttle, cfg.actuators.min[1]);
+    assert!(
+        out.status
+            .contains(StatusFlags::OPEN_LOOP | StatusFlags::SATURATED_THROTTLE),
+        "{:#x}",
+        out.status.0
+    );
+}
+
+#[test]
+fn a_held_navigation_sample_with_a_surface_at_its_stop_reports_both() {
+    // The elevator limited to a hair around trim: engaged on a pitched-up sample, it sits at
+    // a stop; a bad sample next is held (integrators frozen by the hold, not by
+    // anti-windup), and the step reports both the hold and the saturation.
+    let trim = TRIM.command();
+    let mut cfg = ControllerConfig::paper();
+    cfg.actuators.min[0] = trim[0] - 1e-6;
+    cfg.actuators.max[0] = trim[0] + 1e-6;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let mut nav = NavSample::default();
+    nav.lon.theta_rad = 0.01;
+    let input = |seq, request, nav| ControllerInput {
+        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+        nav,
+        probe_contact: false,
+        request,
+    };
+    assert_eq!(
+        ctl.step(&input(1, ModeRequest::Engage, nav)).mode,
+        Mode::Approach
+    );
+    let mut bad = nav;
+    bad.lat.p_radps = f32::NAN;
+    let out = ctl.step(&input(2, ModeRequest::None, bad));
+    assert_eq!(out.mode, Mode::Approach);
+    let both = StatusFlags::NAV_HELD | StatusFlags::SATURATED_ELEVATOR;
+    assert!(out.status.contains(both), "{:#x}", out.status.0);
+    let frozen = StatusFlags::LON_INTEGRATOR_FROZEN | StatusFlags::LAT_INTEGRATOR_FROZEN;
+    assert_eq!(out.status.0 & frozen, 0, "{:#x}", out.status.0);
+}
+
+#[test]
+fn a_step_holding_both_the_frame_and_the_navigation_reports_both() {
+    let mut ctl = Controller::new(ControllerConfig::paper()).expect("valid configuration");
+    let input = |seq, tracked, request, nav| ControllerInput {
+        measurement: CameraMeasurement {
+            tracked,
+            ..frame(seq, 0.05, -0.02, 6.0)
+        },
+        nav,
+        probe_contact: false,
+        request,
+    };
+    let nav = NavSample::default();
+    assert_eq!(
+        ctl.step(&input(1, true, ModeRequest::Engage, nav)).mode,
+        Mode::Approach
+    );
+    let mut bad = nav;
+    bad.lon.q_radps = f32::NAN;
+    let out = ctl.step(&input(2, false, ModeRequest::None, bad));
+    assert_eq!(out.mode, Mode::Approach);
+    assert_eq!(
+        out.status.0,
+        StatusFlags::MEASUREMENT_HELD | StatusFlags::NAV_HELD,
+        "{:#x}",
+        out.status.0
+    );
+}
