@@ -371,14 +371,15 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
     let (mut checked_far, mut checked_near) = (0, 0);
     let (mut contact, mut last) = (None, ControllerOutput::default());
     for k in 0..600 {
-        let closing = if previous == Mode::PreContact {
-            0.0
-        } else {
-            1.0
+        // At the station, then closing at 0.5 m/s (long enough for the desired velocity to
+        // reach the contact speed), and over the last 1.2 m at 1.6 m/s (not 1: a horizon
+        // `to_go / closing` must not equal `to_go * closing`).
+        let closing = match previous {
+            Mode::Approach | Mode::Terminal if depth > 1.2 => 0.5,
+            Mode::Approach | Mode::Terminal => 1.6,
+            _ => 0.0,
         };
-        if closing > 0.0 && previous != Mode::Standby {
-            depth -= 0.02;
-        }
+        depth -= closing * Controller::PERIOD_S;
         let out = s.step([x, y, depth], closing);
         // The frame the controller saw, as its estimator takes it.
         let z = depth + s.tip[2];
