@@ -676,3 +676,50 @@ fn a_step_holding_both_the_frame_and_the_navigation_reports_both() {
         out.status.0
     );
 }
+
+#[test]
+fn a_standby_trim_outside_a_limit_is_reported_saturated() {
+    // Standby commands the trim of the design in use. The configuration must hold the
+    // single-point design's trim, but a scheduled condition's may lie outside a limit: the
+    // elevator then sits at that limit, and the step says so (with nothing else to flag:
+    // no integrator runs in standby).
+    let condition = FlightCondition {
+        true_airspeed_mps: 100.0,
+        altitude_m: 8000.0,
+    };
+    let there = design_at(condition)
+        .expect("inside the envelope")
+        .trim
+        .command();
+    let here = TRIM.command();
+    assert!((there[0] - here[0]).abs() > 1e-3);
+    let mut cfg = ControllerConfig::paper();
+    let middle = 0.5 * (here[0] + there[0]);
+    if there[0] > here[0] {
+        cfg.actuators.max[0] = middle;
+    } else {
+        cfg.actuators.min[0] = middle;
+    }
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let input = |seq| ControllerInput {
+        measurement: frame(seq, 0.05, -0.02, 6.0),
+        nav: NavSample {
+            condition,
+            ..NavSample::default()
+        },
+        probe_contact: false,
+        request: ModeRequest::None,
+    };
+    assert_eq!(ctl.step(&input(1)).status.0, 0);
+    assert!(ctl.follow_schedule());
+    let out = ctl.step(&input(2));
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(out.command.elevator_rad, middle);
+    assert_eq!(
+        out.status.0,
+        StatusFlags::SATURATED_ELEVATOR,
+        "{:#x}",
+        out.status.0
+    );
+    assert_eq!(ctl.counters().saturated_steps, 1);
+}
