@@ -1,0 +1,725 @@
+//! What the controller reports and keeps, against the `controller` module doc and
+//! `docs/conventions.md`: the status bits are distinct single bits (the logs and the link
+//! carry them as a number; the saturation flags are bits 2..5 in channel order), the
+//! accessors give back what the controller flies, and a refused reconfiguration says why;
+//! PBVS reconstructs the drogue with the trim pitch of the design the schedule loaded
+//! ("Outer loop (PBVS baseline)": the attitude is the trim pitch plus the perturbations);
+//! and, flying the refuelling procedure ("The refuelling procedure" table), the desired
+//! velocity each mode asks for: closing at the contact speed in the approach and the
+//! capture (the forward axis slewing at `velocity_limits.max_accel_mps2`), backing off and
+//! descending for `missed_clear_s` of a missed approach, then holding the station; the
+//! go/no-go gate's figure ("The go/no-go gate"): the offset predicted by the drogue
+//! estimator `t_go` ahead (the depth over the present closing speed, at most
+//! `gate_max_horizon_s`), its radial mean plus `gate_sigmas` standard deviations of the
+//! larger axis, in the approach and the capture only (infinite elsewhere); the saturation
+//! bits name exactly the channels held at a limit.
+
+use ibvs_core::config::ConfigProblem;
+use ibvs_core::controller::StatusFlags;
+use ibvs_core::estimator::{DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight};
+use ibvs_core::gains::TRIM;
+use ibvs_core::kinematics::point_velocity_tanker_mps;
+use ibvs_core::measurement::CameraMeasurement;
+use ibvs_core::nav::{FlightCondition, NavSample};
+use ibvs_core::procedure;
+use ibvs_core::schedule::design_at;
+use ibvs_core::{
+    ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
+    ModeRequest, OuterLaw, ReconfigureError,
+};
+use nalgebra::{Rotation3, Vector3};
+
+/// A frame numbered `seq` showing the drogue at `(x, y)` at `depth_m`.
+fn frame(seq: u32, x: f32, y: f32, depth_m: f32) -> CameraMeasurement {
+    CameraMeasurement {
+        seq,
+        tracked: true,
+        image_x: x,
+        image_y: y,
+        depth_m,
+        probe_tip: None,
+    }
+}
+
+const FLAGS: [(&str, u16); 11] = [
+    ("MEASUREMENT_HELD", StatusFlags::MEASUREMENT_HELD),
+    ("NAV_HELD", StatusFlags::NAV_HELD),
+    ("SATURATED_ELEVATOR", StatusFlags::SATURATED_ELEVATOR),
+    ("SATURATED_THROTTLE", StatusFlags::SATURATED_THROTTLE),
+    ("SATURATED_AILERON", StatusFlags::SATURATED_AILERON),
+    ("SATURATED_RUDDER", StatusFlags::SATURATED_RUDDER),
+    ("LON_INTEGRATOR_FROZEN", StatusFlags::LON_INTEGRATOR_FROZEN),
+    ("LAT_INTEGRATOR_FROZEN", StatusFlags::LAT_INTEGRATOR_FROZEN),
+    ("ENGAGE_REFUSED", StatusFlags::ENGAGE_REFUSED),
+    ("NON_FINITE_COMMAND", StatusFlags::NON_FINITE_COMMAND),
+    ("OPEN_LOOP", StatusFlags::OPEN_LOOP),
+];
+
+#[test]
+fn every_status_flag_is_a_bit_of_its_own() {
+    let mut seen = 0u16;
+    for (name, f) in FLAGS {
+        assert_eq!(f.count_ones(), 1, "{name} = {f:#x} is not a single bit");
+        assert_eq!(seen & f, 0, "{name} = {f:#x} shares its bit");
+        seen |= f;
+        // `contains` tests exactly its bits.
+        assert!(StatusFlags(f).contains(f) && StatusFlags(u16::MAX).contains(f));
+        assert!(
+            !StatusFlags(!f).contains(f) && !StatusFlags(0).contains(f),
+            "{name}"
+        );
+    }
+    // The saturation flags: bits 2..5 in the actuator channels' order (elevator, throttle,
+    // aileron, rudder), as their doc states.
+    assert_eq!(
+        [
+            StatusFlags::SATURATED_ELEVATOR,
+            StatusFlags::SATURATED_THROTTLE,
+            StatusFlags::SATURATED_AILERON,
+            StatusFlags::SATURATED_RUDDER,
+        ],
+        [1 << 2, 1 << 3, 1 << 4, 1 << 5]
+    );
+}
+
+#[test]
+fn the_controller_gives_back_the_configuration_it_flies() {
+    let mut cfg = ControllerConfig::paper();
+    cfg.modes.hold_limit_steps = 7;
+    cfg.integrator_limit_m = 3.5;
+    let ctl = Controller::new(cfg).expect("valid configuration");
+    assert_eq!(*ctl.config(), cfg);
+    assert_ne!(*ctl.config(), ControllerConfig::default());
+}
+
+#[test]
+fn a_refused_reconfiguration_names_the_mode_or_the_configurations_own_error() {
+    let busy = ReconfigureError::NotStandby(Mode::Approach).to_string();
+    assert!(
+        busy.contains("Approach") && busy.contains("Standby"),
+        "{busy}"
+    );
+    let e = ConfigError {
+        field: "velocity_limits",
+        problem: ConfigProblem::Inconsistent,
+        requirement: "every limit finite, > 0",
+    };
+    // The configuration's error, as it words it itself.
+    assert_eq!(ReconfigureError::Invalid(e).to_string(), e.to_string());
+    assert!(e.to_string().contains("velocity_limits"));
+}
+
+#[test]
+fn pbvs_reconstructs_the_drogue_with_the_trim_pitch_of_the_scheduled_design() {
+    let mut cfg = ControllerConfig::paper();
+    cfg.law = OuterLaw::Pbvs;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    // A condition whose trim pitch is not the single-point design's.
+    let condition = FlightCondition {
+        true_airspeed_mps: 150.0,
+        altitude_m: 3000.0,
+    };
+    let trim_pitch = design_at(condition)
+        .expect("inside the envelope")
+        .trim
+        .theta_rad;
+    assert!((trim_pitch - ibvs_core::gains::TRIM.theta_rad).abs() > 0.02);
+    let nav = NavSample {
+        condition,
+        ..NavSample::default()
+    };
+    let input = |seq| ControllerInput {
+        measurement: frame(seq, 0.1, -0.05, 6.0),
+        nav,
+        probe_contact: false,
+        request: ModeRequest::None,
+    };
+    ctl.step(&input(1));
+    assert!(
+        ctl.follow_schedule(),
+        "the new condition's design was not loaded"
+    );
+    let out = ctl.step(&input(2));
+    // The drogue in camera axes, into body axes by the believed mount, from the probe tip,
+    // into tanker axes by the attitude: the trim pitch, no perturbation.
+    let f = |x: f32| f64::from(x);
+    let (z, m) = (6.0, &cfg.camera);
+    let drogue_cam = Vector3::new(0.1 * z, -0.05 * z, z);
+    let p = f(m.pitch_down_rad);
+    let body_from_camera =
+        nalgebra::Matrix3::new(0.0, -p.sin(), p.cos(), 1.0, 0.0, 0.0, 0.0, p.cos(), p.sin());
+    let cam = Vector3::from(m.position_body_m.map(f));
+    let tip = Vector3::from(cfg.probe_tip_body_m.map(f));
+    let r = Rotation3::from_euler_angles(0.0, f(trim_pitch), 0.0)
+        * (cam - tip + body_from_camera * drogue_cam);
+    let got = [out.target.right_m, out.target.down_m, out.target.depth_m];
+    let want = [r.y, r.z, r.x];
+    for (g, w) in got.iter().zip(&want) {
+        assert!((f(*g) - w).abs() < 1e-4, "{got:?} vs {want:?}");
+    }
+}
+
+/// A refuelling sortie: the drogue at rest relative to the tanker, seen by the configured
+/// (set-back) camera at `(right, down)` m from the probe tip and `depth` m ahead of it;
+/// the navigation at trim, or the receiver closing at `closing_mps` relative to the tanker.
+struct Sortie {
+    ctl: Controller,
+    seq: u32,
+    /// Probe tip minus camera, camera axes, m.
+    tip: [f32; 3],
+}
+
+impl Sortie {
+    fn new() -> Self {
+        let cfg = ControllerConfig::default();
+        let tip =
+            TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad).tip_from_camera_m();
+        Self {
+            ctl: Controller::new(cfg).expect("valid configuration"),
+            seq: 0,
+            tip,
+        }
+    }
+
+    fn step(&mut self, at: [f32; 3], closing_mps: f32) -> ControllerOutput {
+        self.step_seeing_tip(at, closing_mps, None)
+    }
+
+    /// A step whose frame also reports the probe tip's image point `probe_tip`.
+    fn step_seeing_tip(
+        &mut self,
+        [x, y, d]: [f32; 3],
+        closing_mps: f32,
+        probe_tip: Option<[f32; 2]>,
+    ) -> ControllerOutput {
+        self.seq += 1;
+        let z = d + self.tip[2];
+        let mut nav = NavSample::default();
+        nav.lon.v_mps = closing_mps;
+        self.ctl.step(&ControllerInput {
+            measurement: CameraMeasurement {
+                seq: self.seq,
+                tracked: true,
+                // A tracker's noise, so the frozen-frame check does not reject the frames.
+                image_x: (x + self.tip[0]) / z + 1e-4 * (self.seq % 5) as f32,
+                image_y: (y + self.tip[1]) / z,
+                depth_m: z,
+                probe_tip,
+            },
+            nav,
+            probe_contact: false,
+            request: if self.seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            },
+        })
+    }
+
+    /// Engaged at the station, held there until cleared to the approach.
+    fn to_approach() -> Self {
+        let mut s = Self::new();
+        let station = [0.0, 0.0, 3.0];
+        assert_eq!(s.step(station, 0.0).mode, Mode::PreContact);
+        for _ in 0..200 {
+            if s.step(station, 0.0).mode == Mode::Approach {
+                return s;
+            }
+        }
+        panic!("not cleared to the approach at a steady station");
+    }
+}
+
+#[test]
+fn the_approach_and_the_capture_close_at_the_contact_speed() {
+    let mut s = Sortie::to_approach();
+    let cfg = *s.ctl.config();
+    let slew = cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S;
+    let contact = cfg.refuelling.contact_speed_mps;
+    // The receiver closes at 1 m/s; the drogue, centred, stays where it is.
+    let mut depth = 3.0_f32;
+    let mut last = s.step([0.0, 0.0, depth], 0.0).v_des;
+    let mut terminal_steps = 0;
+    for k in 0..400 {
+        depth -= 0.02;
+        let out = s.step([0.0, 0.0, depth], 1.0);
+        let v = out.v_des;
+        match out.mode {
+            Mode::Approach => {
+                // From the station's zero toward the contact speed, one slew step a step.
+                if v.z_fwd_mps < contact - 0.1 {
+                    assert!(
+                        (v.z_fwd_mps - last.z_fwd_mps - slew).abs() < 1e-4,
+                        "step {k} of the approach: {} -> {}",
+                        last.z_fwd_mps,
+                        v.z_fwd_mps
+                    );
+                }
+            }
+            Mode::Terminal => {
+                // The capture keeps closing at the contact speed (the calm air's, or the
+                // rough air's 1.3 m/s: the estimator starts from the configured air's
+                // activity, and the approach keeps the speed it started with), the drogue
+                // at rest: never slower, never slowing.
+                terminal_steps += 1;
+                assert!(
+                    v.z_fwd_mps >= contact - 0.05 && v.z_fwd_mps >= last.z_fwd_mps - 1e-3,
+                    "step {terminal_steps} of the capture: {} -> {}",
+                    last.z_fwd_mps,
+                    v.z_fwd_mps
+                );
+            }
+            m => panic!("left the approach for {m:?} at {depth} m"),
+        }
+        last = v;
+        if depth < 0.2 {
+            break;
+        }
+    }
+    assert!(
+        terminal_steps > 20,
+        "the capture was flown {terminal_steps} steps"
+    );
+}
+
+#[test]
+fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the_station() {
+    let mut s = Sortie::to_approach();
+    let rc = s.ctl.config().refuelling;
+    // The drogue swings off to the right, beyond the abort offset, at 2 m of depth.
+    let mut x = 0.0_f32;
+    let mut missed = None;
+    for _ in 0..300 {
+        x = (x + 0.01).min(0.8);
+        let out = s.step([x, 0.0, 2.0], 0.0);
+        if out.mode == Mode::MissedApproach {
+            missed = Some(out);
+            break;
+        }
+        assert_eq!(out.mode, Mode::Approach);
+    }
+    let first = missed.expect("no missed approach with the drogue 0.8 m off");
+    let clear_steps = (rc.missed_clear_s / Controller::PERIOD_S).round() as usize;
+    let mut outs = vec![first];
+    for _ in 0..clear_steps + 60 {
+        let out = s.step([0.8, 0.0, 2.0], 0.0);
+        assert_eq!(out.mode, Mode::MissedApproach);
+        outs.push(out);
+    }
+    // Clearing: the descent (0.5 m/s; the drogue is level with the tip, so no vertical
+    // correction) is reached at the missed approach's slew, 1 m/s² (25 steps), and kept.
+    for (k, out) in outs.iter().enumerate().take(clear_steps - 5).skip(30) {
+        assert!(
+            (out.v_des.y_down_mps - rc.missed_down_mps).abs() < 0.02,
+            "step {k} of the missed approach: {:?}",
+            out.v_des
+        );
+    }
+    // For `missed_clear_s` exactly: the first `clear_steps` steps (the entry's included)
+    // keep the descent, the next starts back toward the station's level.
+    let slew = rc.missed_accel_mps2 * Controller::PERIOD_S;
+    let down: Vec<f32> = outs.iter().map(|o| o.v_des.y_down_mps).collect();
+    assert!(
+        (down[clear_steps - 1] - rc.missed_down_mps).abs() < 0.02,
+        "{}",
+        down[clear_steps - 1]
+    );
+    assert!(
+        (down[clear_steps - 1] - down[clear_steps] - slew).abs() < 1e-4,
+        "clearing ends at step {clear_steps}: {:?}",
+        &down[clear_steps - 2..clear_steps + 2]
+    );
+    // Then the station: no descent (the drogue's mean is level with the tip).
+    let held = outs.last().expect("steps flown").v_des;
+    assert!(held.y_down_mps.abs() < 0.02, "{held:?}");
+}
+
+#[test]
+fn only_rejected_probe_tip_sightings_are_counted() {
+    let mut s = Sortie::new();
+    let tol = s.ctl.config().estimator.tip_sight_tolerance;
+    let station = [0.0, 0.0, 3.0];
+    // Where the geometry puts the tip, and a sighting within the tolerance of it: used.
+    let t = s.tip;
+    let tip_image = [t[0] / t[2], t[1] / t[2]];
+    s.step_seeing_tip(station, 0.0, Some(tip_image));
+    s.step_seeing_tip(station, 0.0, None);
+    s.step_seeing_tip(station, 0.0, Some([tip_image[0] + 0.5 * tol, tip_image[1]]));
+    assert_eq!(s.ctl.counters().tip_sight_rejected, 0);
+    // Beyond the tolerance, or not finite: rejected, one count each.
+    s.step_seeing_tip(station, 0.0, Some([tip_image[0] + 2.0 * tol, tip_image[1]]));
+    s.step_seeing_tip(station, 0.0, Some([f32::NAN, tip_image[1]]));
+    assert_eq!(s.ctl.counters().tip_sight_rejected, 2);
+}
+
+#[test]
+fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
+    // The controller's drogue estimator, fed here the frames the controller takes (a twin:
+    // the same public filter, `estimator_filter.rs` tests it), gives the prediction; the
+    // gate's figure is then the documented arithmetic on it.
+    let mut s = Sortie::new();
+    let cfg = *s.ctl.config();
+    let rc = &cfg.refuelling;
+    let geometry = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad);
+    let sight = TipSight::new(&geometry); // no tip sightings: the geometry's image point
+    let model = EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S);
+    let mut twin = DrogueEstimator::default();
+    // The drogue off the tip on both axes, so that both enter the radial mean.
+    let (x, y) = (0.06_f32, -0.04_f32);
+    let mut depth = 3.0_f32;
+    let mut previous = Mode::Standby;
+    let (mut checked_far, mut checked_near) = (0, 0);
+    let (mut contact, mut last) = (None, ControllerOutput::default());
+    for k in 0..600 {
+        // At the station, then closing at 0.5 m/s (long enough for the desired velocity to
+        // reach the contact speed), and over the last 1.2 m at 1.6 m/s (not 1: a horizon
+        // `to_go / closing` must not equal `to_go * closing`).
+        let closing = match previous {
+            Mode::Approach | Mode::Terminal if depth > 1.2 => 0.5,
+            Mode::Approach | Mode::Terminal => 1.6,
+            _ => 0.0,
+        };
+        depth -= closing * Controller::PERIOD_S;
+        let out = s.step([x, y, depth], closing);
+        // The frame the controller saw, as its estimator takes it.
+        let z = depth + s.tip[2];
+        let image = [
+            (x + s.tip[0]) / z + 1e-4 * (s.seq % 5) as f32,
+            (y + s.tip[1]) / z,
+        ];
+        let frame = TipFrame {
+            drogue_from_tip_m: geometry.drogue_from_tip(image, z, [0.0; 3], sight.image()),
+            camera_depth_m: z,
+        };
+        let mut nav = NavSample::default();
+        nav.lon.v_mps = closing;
+        let tip = point_velocity_tanker_mps(&nav, &TRIM, cfg.probe_tip_body_m);
+        if twin.started() {
+            twin.predict(tip, &model);
+            twin.correct(&frame, &cfg.estimator);
+        }
+        if matches!(previous, Mode::Approach | Mode::Terminal) {
+            let e = twin.estimate();
+            let closing_mps = e.closing_mps(tip[2]);
+            let to_go = e.depth_m.max(0.0);
+            // Not closing: the longest horizon.
+            let h = if closing_mps > 0.0 {
+                (to_go / closing_mps).min(rc.gate_max_horizon_s)
+            } else {
+                rc.gate_max_horizon_s
+            };
+            let [a, b] = twin.predict_offset(h, [tip[0], tip[1]], &model);
+            let sigma = a.variance_m2.max(b.variance_m2).max(0.0).sqrt();
+            let want = (a.mean_m * a.mean_m + b.mean_m * b.mean_m).sqrt() + rc.gate_sigmas * sigma;
+            assert!(
+                (out.predicted_miss_m - want).abs() <= 1e-5 * want,
+                "step {k} ({previous:?}, {to_go} m to go, horizon {h} s): {} vs {want}",
+                out.predicted_miss_m
+            );
+            if h < rc.gate_max_horizon_s {
+                checked_near += 1;
+            } else {
+                checked_far += 1;
+            }
+        } else {
+            assert_eq!(
+                out.predicted_miss_m,
+                f32::INFINITY,
+                "step {k} in {previous:?}"
+            );
+        }
+        if !twin.started() && out.mode == Mode::PreContact {
+            twin.start(&frame, &cfg.estimator);
+        }
+        if previous == Mode::PreContact && out.mode == Mode::Approach {
+            // The approach's closing speed, chosen from the air as it starts.
+            contact = Some(procedure::contact_speed(twin.drogue_speed_rms_mps(), rc));
+        }
+        last = out;
+        previous = out.mode;
+        if depth < 0.1 {
+            break;
+        }
+    }
+    // Both horizons: the longest far out, the time to go in the capture's last half metre.
+    assert!(
+        checked_far > 50 && checked_near > 10,
+        "{checked_far} far, {checked_near} near"
+    );
+    // The capture closes at that speed relative to the drogue to its end: the estimator
+    // starts from the configured air's activity, rough enough at the approach's start here
+    // for the rough-air speed.
+    let contact = contact.expect("no approach flown");
+    assert_eq!(contact, rc.rough_air_contact_speed_mps);
+    assert_eq!(last.mode, Mode::Terminal);
+    let want = contact + last.estimate.drogue_velocity_mps[2];
+    assert!(
+        (last.v_des.z_fwd_mps - want).abs() < 0.02,
+        "{:?} vs {want}",
+        last.v_des
+    );
+}
+
+#[test]
+fn the_paper_procedure_has_no_gate_figure() {
+    let mut ctl = Controller::new(ControllerConfig::paper()).expect("valid configuration");
+    for seq in 1..30 {
+        let out = ctl.step(&ControllerInput {
+            measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+            nav: NavSample::default(),
+            probe_contact: false,
+            request: if seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            },
+        });
+        assert_eq!(out.mode, Mode::Approach);
+        assert_eq!(out.predicted_miss_m, f32::INFINITY, "step {seq}");
+    }
+}
+
+#[test]
+fn back_in_standby_the_refuelling_estimate_is_the_frame_itself_again() {
+    // Engaged and flown for a while, then reset: the drogue estimator stops, and standby
+    // reports the frame's own offset and depth with no velocity ("before engage the
+    // estimate is the frame itself"), not a filtered one.
+    let mut s = Sortie::to_approach();
+    for _ in 0..20 {
+        s.step([0.05, 0.02, 2.8], 0.0);
+    }
+    s.seq += 1;
+    let reset = s.ctl.step(&ControllerInput {
+        request: ModeRequest::Reset,
+        ..ControllerInput::default()
+    });
+    assert_eq!(reset.mode, Mode::Standby);
+    // A frame far from what the filter believed: 0.3 m right, 0.2 m up, 4 m ahead.
+    let out = s.step([0.3, -0.2, 4.0], 0.0);
+    assert_eq!(out.mode, Mode::Standby);
+    let e = out.estimate;
+    assert_eq!(e.drogue_velocity_mps, [0.0; 3]);
+    assert_eq!(e.offset_m, e.mean_offset_m);
+    // Within the rig's tracker noise (at most 4e-4 of the image, 2.7 mm at 6.7 m).
+    for (got, want) in [e.offset_m[0], e.offset_m[1], e.depth_m]
+        .iter()
+        .zip([0.3, -0.2, 4.0])
+    {
+        assert!((got - want).abs() < 3e-3, "{e:?}");
+    }
+}
+
+#[test]
+fn the_saturation_bits_name_exactly_the_channels_held_at_a_limit() {
+    let trim = TRIM.command();
+    // A small perturbation on both channels: every command moves off trim a little.
+    let mut nav = NavSample::default();
+    nav.lon.theta_rad = 0.01;
+    nav.lon.v_mps = 0.5;
+    nav.lat.phi_rad = 0.05;
+    nav.lat.r_radps = -0.02;
+    // Steps with one integrator frozen and not the other (the count is per step).
+    let mut one_frozen = 0;
+    for channel in 0..4 {
+        // That channel limited to a hair around trim, the others wide open.
+        let mut cfg = ControllerConfig::paper();
+        cfg.measurement.frozen_frame_limit = u16::MAX;
+        cfg.actuators.min[channel] = trim[channel] - 1e-6;
+        cfg.actuators.max[channel] = trim[channel] + 1e-6;
+        let mut ctl = Controller::new(cfg).expect("valid configuration");
+        let mut frozen_steps = 0;
+        let input = |seq, request| ControllerInput {
+            measurement: frame(seq, 0.05, -0.02, 6.0),
+            nav,
+            probe_contact: false,
+            request,
+        };
+        for seq in 1..40 {
+            let request = if seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            };
+            let out = ctl.step(&input(seq, request));
+            assert_eq!(out.mode, Mode::Approach);
+            let command = out.command.as_array();
+            let bits = [
+                StatusFlags::SATURATED_ELEVATOR,
+                StatusFlags::SATURATED_THROTTLE,
+                StatusFlags::SATURATED_AILERON,
+                StatusFlags::SATURATED_RUDDER,
+            ];
+            for (i, bit) in bits.into_iter().enumerate() {
+                let at_limit =
+                    command[i] == cfg.actuators.min[i] || command[i] == cfg.actuators.max[i];
+                assert_eq!(
+                    out.status.contains(bit),
+                    at_limit,
+                    "channel {channel} limited, step {seq}: channel {i} {command:?}, status {:#x}",
+                    out.status.0
+                );
+            }
+            let frozen = [
+                StatusFlags::LON_INTEGRATOR_FROZEN,
+                StatusFlags::LAT_INTEGRATOR_FROZEN,
+            ]
+            .map(|f| out.status.contains(f));
+            frozen_steps += u32::from(frozen[0] || frozen[1]);
+            one_frozen += u32::from(frozen[0] != frozen[1]);
+            assert!(
+                out.status.contains(bits[channel]),
+                "step {seq}: {:#x}",
+                out.status.0
+            );
+        }
+        // Every one of those steps, the engage included, counted as saturated; the steps
+        // with either integrator frozen counted as such, one count a step.
+        assert_eq!(ctl.counters().saturated_steps, 39, "channel {channel}");
+        assert_eq!(
+            ctl.counters().integrator_frozen_steps,
+            frozen_steps,
+            "channel {channel}"
+        );
+    }
+    assert!(one_frozen > 0, "never only one integrator frozen");
+}
+
+#[test]
+fn an_open_loop_breakaway_held_at_a_throttle_stop_reports_both() {
+    // The open-loop throttle cut (trim less `breakaway_throttle_cut`) below the throttle's
+    // lower limit: the command sits at the stop, and the step says both that it flies open
+    // loop and that the throttle saturated.
+    let mut cfg = ControllerConfig::paper();
+    cfg.actuators.min[1] = TRIM.throttle - 0.5 * cfg.modes.breakaway_throttle_cut;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let input = |seq, request, nav| ControllerInput {
+        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+        nav,
+        probe_contact: false,
+        request,
+    };
+    let trim_nav = NavSample::default();
+    assert_eq!(
+        ctl.step(&input(1, ModeRequest::Engage, trim_nav)).mode,
+        Mode::Approach
+    );
+    let mut bad_nav = trim_nav;
+    bad_nav.lon.v_mps = f32::INFINITY;
+    let out = ctl.step(&input(2, ModeRequest::Abort, bad_nav));
+    assert_eq!(out.mode, Mode::Breakaway);
+    assert_eq!(out.command.throttle, cfg.actuators.min[1]);
+    assert!(
+        out.status
+            .contains(StatusFlags::OPEN_LOOP | StatusFlags::SATURATED_THROTTLE),
+        "{:#x}",
+        out.status.0
+    );
+}
+
+#[test]
+fn a_held_navigation_sample_with_a_surface_at_its_stop_reports_both() {
+    // The elevator limited to a hair around trim: engaged on a pitched-up sample, it sits at
+    // a stop; a bad sample next is held (integrators frozen by the hold, not by
+    // anti-windup), and the step reports both the hold and the saturation.
+    let trim = TRIM.command();
+    let mut cfg = ControllerConfig::paper();
+    cfg.actuators.min[0] = trim[0] - 1e-6;
+    cfg.actuators.max[0] = trim[0] + 1e-6;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let mut nav = NavSample::default();
+    nav.lon.theta_rad = 0.01;
+    let input = |seq, request, nav| ControllerInput {
+        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+        nav,
+        probe_contact: false,
+        request,
+    };
+    assert_eq!(
+        ctl.step(&input(1, ModeRequest::Engage, nav)).mode,
+        Mode::Approach
+    );
+    let mut bad = nav;
+    bad.lat.p_radps = f32::NAN;
+    let out = ctl.step(&input(2, ModeRequest::None, bad));
+    assert_eq!(out.mode, Mode::Approach);
+    let both = StatusFlags::NAV_HELD | StatusFlags::SATURATED_ELEVATOR;
+    assert!(out.status.contains(both), "{:#x}", out.status.0);
+    let frozen = StatusFlags::LON_INTEGRATOR_FROZEN | StatusFlags::LAT_INTEGRATOR_FROZEN;
+    assert_eq!(out.status.0 & frozen, 0, "{:#x}", out.status.0);
+}
+
+#[test]
+fn a_step_holding_both_the_frame_and_the_navigation_reports_both() {
+    let mut ctl = Controller::new(ControllerConfig::paper()).expect("valid configuration");
+    let input = |seq, tracked, request, nav| ControllerInput {
+        measurement: CameraMeasurement {
+            tracked,
+            ..frame(seq, 0.05, -0.02, 6.0)
+        },
+        nav,
+        probe_contact: false,
+        request,
+    };
+    let nav = NavSample::default();
+    assert_eq!(
+        ctl.step(&input(1, true, ModeRequest::Engage, nav)).mode,
+        Mode::Approach
+    );
+    let mut bad = nav;
+    bad.lon.q_radps = f32::NAN;
+    let out = ctl.step(&input(2, false, ModeRequest::None, bad));
+    assert_eq!(out.mode, Mode::Approach);
+    assert_eq!(
+        out.status.0,
+        StatusFlags::MEASUREMENT_HELD | StatusFlags::NAV_HELD,
+        "{:#x}",
+        out.status.0
+    );
+}
+
+#[test]
+fn a_standby_trim_outside_a_limit_is_reported_saturated() {
+    // Standby commands the trim of the design in use. The configuration must hold the
+    // single-point design's trim, but a scheduled condition's may lie outside a limit: the
+    // elevator then sits at that limit, and the step says so (with nothing else to flag:
+    // no integrator runs in standby).
+    let condition = FlightCondition {
+        true_airspeed_mps: 100.0,
+        altitude_m: 8000.0,
+    };
+    let there = design_at(condition)
+        .expect("inside the envelope")
+        .trim
+        .command();
+    let here = TRIM.command();
+    assert!((there[0] - here[0]).abs() > 1e-3);
+    let mut cfg = ControllerConfig::paper();
+    let middle = 0.5 * (here[0] + there[0]);
+    if there[0] > here[0] {
+        cfg.actuators.max[0] = middle;
+    } else {
+        cfg.actuators.min[0] = middle;
+    }
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    let input = |seq| ControllerInput {
+        measurement: frame(seq, 0.05, -0.02, 6.0),
+        nav: NavSample {
+            condition,
+            ..NavSample::default()
+        },
+        probe_contact: false,
+        request: ModeRequest::None,
+    };
+    assert_eq!(ctl.step(&input(1)).status.0, 0);
+    assert!(ctl.follow_schedule());
+    let out = ctl.step(&input(2));
+    assert_eq!(out.mode, Mode::Standby);
+    assert_eq!(out.command.elevator_rad, middle);
+    assert_eq!(
+        out.status.0,
+        StatusFlags::SATURATED_ELEVATOR,
+        "{:#x}",
+        out.status.0
+    );
+    assert_eq!(ctl.counters().saturated_steps, 1);
+}
