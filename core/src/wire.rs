@@ -1095,10 +1095,7 @@ fn decode_frame(frame: &mut [u8]) -> Result<(usize, usize), WireError> {
     let mut code = frame.first().copied().unwrap_or(1);
     loop {
         let next = at + usize::from(code);
-        if next == n {
-            break;
-        }
-        if next > n {
+        if next >= n {
             break;
         }
         if code == 0xFF {

@@ -245,3 +245,41 @@ fn the_decoder_is_idle_only_between_frames() {
     );
     assert!(d.is_idle());
 }
+
+/// The decoder takes a payload of exactly `MAX_PAYLOAD_LEN` bytes and refuses one byte more
+/// as oversize, for a frame of short blocks (zeros in its payload, decoded a block a step)
+/// as for one of full blocks (no zeros, decoded byte by byte).
+#[test]
+fn the_decoder_takes_the_largest_payload_and_not_one_byte_more() {
+    let frame_of = |payload: &[u8]| {
+        let mut frame = cobs::encode_vec(payload);
+        frame.push(0);
+        frame
+    };
+    for zero_every in [Some(100), None] {
+        for extra in [0, 1] {
+            // A body that is no configuration, with a good CRC: malformed, or oversize.
+            let mut payload = vec![
+                ibvs_core::wire::PROTOCOL_VERSION,
+                FrameKind::ConfigWrite.byte(),
+            ];
+            payload.extend((0..MAX_BODY_LEN + extra).map(|i| match zero_every {
+                Some(k) if i % k == 0 => 0,
+                _ => 0x5A,
+            }));
+            payload.extend(ibvs_core::wire::crc32c(&payload).to_le_bytes());
+            let frame = frame_of(&payload);
+            let want = if extra == 0 {
+                WireError::Malformed
+            } else {
+                WireError::Oversize
+            };
+            assert_eq!(
+                decode_peer_message(&frame),
+                Err(want),
+                "{} payload bytes, zeros every {zero_every:?}",
+                payload.len()
+            );
+        }
+    }
+}
