@@ -967,7 +967,7 @@ type FrameEnd = Option<Result<(usize, usize), WireError>>;
 /// block followed by another (every frame of a payload up to 254 bytes, so every
 /// measurement frame) decodes by turning each code byte after the first into the zero it
 /// stands for: one step per block, and the payload is the buffer after the first code byte.
-/// A longer frame is decoded byte by byte, out of line ([`decode_long_frame`]). A frame
+/// A longer frame is decoded byte by byte, out of line (`decode_long_frame`). A frame
 /// that grows past [`MAX_FRAME_LEN`] is discarded up to the next zero and reported once,
 /// as [`WireError::Oversize`], when that zero arrives.
 #[derive(Debug, Clone)]
