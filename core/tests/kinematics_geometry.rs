@@ -22,7 +22,7 @@ use ibvs_core::kinematics::{
     body_from_camera, lever_arm_lat, lever_arm_lon, point_velocity_tanker_mps, re_from_tanker,
     tanker_from_body,
 };
-use ibvs_core::nav::{LatNav, LonNav, NavSample};
+use ibvs_core::nav::NavSample;
 use nalgebra::{Rotation3, Vector3};
 
 /// The documented kinematics in double precision: `[right, down, forward]`, m/s.
@@ -49,27 +49,10 @@ fn reference_point_velocity(nav: &NavSample, trim: &TrimPoint, p: [f32; 3]) -> [
 }
 
 fn nav(lon: [f32; 6], lat: [f32; 6]) -> NavSample {
-    let [x_fwd_m, h_up_m, theta_rad, v_mps, alpha_rad, q_radps] = lon;
-    let [y_right_m, psi_rad, phi_rad, beta_rad, p_radps, r_radps] = lat;
-    NavSample {
-        lon: LonNav {
-            x_fwd_m,
-            h_up_m,
-            theta_rad,
-            v_mps,
-            alpha_rad,
-            q_radps,
-        },
-        lat: LatNav {
-            y_right_m,
-            psi_rad,
-            phi_rad,
-            beta_rad,
-            p_radps,
-            r_radps,
-        },
-        ..NavSample::default()
-    }
+    let mut a = [0.0; 12];
+    a[..6].copy_from_slice(&lon);
+    a[6..].copy_from_slice(&lat);
+    NavSample::from_array(a)
 }
 
 #[test]
