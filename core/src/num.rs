@@ -362,6 +362,59 @@ mod tests {
         }
     }
 
+    /// Whether `x² + y²` (exact, on a common integer scale) lies halfway between two
+    /// doubles, and whether the double it rounds to lies halfway between two floats: the
+    /// ties of the two roundings.
+    fn ties(x: f32, y: f32) -> (bool, bool) {
+        let (bx, by) = (x.to_bits(), y.to_bits());
+        let m = |b: u32| u128::from((b & 0x007F_FFFF) | 0x0080_0000);
+        let d = 2 * ((bx >> 23) - (by >> 23));
+        let exact = (m(bx) * m(bx) << d) + m(by) * m(by);
+        let width = 128 - exact.leading_zeros();
+        let t53 = width > 53 && exact & ((1 << (width - 53)) - 1) == 1 << (width - 54);
+        let double = f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y);
+        let t24 = double.to_bits() & 0x1FFF_FFFF == 0x1000_0000;
+        (t53, t24)
+    }
+
+    #[test]
+    fn sum_of_squares_rounds_ties_as_double_then_single_precision() {
+        // Significands with at most two bits below the leading one make sums whose bits are
+        // sparse: many of them fall exactly halfway at the rounding to 53 bits, or at the
+        // rounding of the double to 24, where random significands (above) almost never do.
+        // Every such pair, for gaps of exponent 0..=40, against the double-precision
+        // reference; the ties are counted so that the test shows it reached them.
+        let mut sparse = [0u32; 1 + 23 + 23 * 22 / 2];
+        let mut n = 1;
+        for i in 0..23 {
+            sparse[n] = 1 << i;
+            n += 1;
+            for j in 0..i {
+                sparse[n] = 1 << i | 1 << j;
+                n += 1;
+            }
+        }
+        assert_eq!(n, sparse.len());
+        let (mut ties53, mut ties24) = (0u32, 0u32);
+        for &fx in &sparse {
+            let x = f32::from_bits(127 << 23 | fx);
+            for gap in 0..=40u32 {
+                for &fy in &sparse {
+                    let y = f32::from_bits((127 - gap) << 23 | fy);
+                    if y > x {
+                        continue;
+                    }
+                    let want = (f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y)) as f32;
+                    assert_eq!(sum_of_squares_bits(x, y), want.to_bits(), "{x:e} {y:e}");
+                    let (t53, t24) = ties(x, y);
+                    ties53 += u32::from(t53);
+                    ties24 += u32::from(t24);
+                }
+            }
+        }
+        assert!(ties53 > 1000 && ties24 > 1000, "ties {ties53} / {ties24}");
+    }
+
     #[test]
     fn equals_hypotf_comparison_everywhere() {
         let mut r = Rng(0x2545_F491_4F6C_DD1D);
