@@ -33,7 +33,7 @@ use host_sim::scenario::{ControllerSection, PRESETS, ScenarioFile};
 
 use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
-    self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS, codegen,
+    self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_DESIGN_XCG, REFUELLING_SPEED_MPS, codegen,
 };
 use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::wire::CostUnit;
@@ -459,7 +459,10 @@ fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     let s = synthesis::nominal()?;
     let refuel = synthesis::nominal_refuelling()?;
     if let Some(path) = &write_core {
-        let schedule = synthesis::schedule::synthesize_schedule(&F16::new(NOMINAL_XCG)?)?;
+        let schedule = synthesis::schedule::synthesize_schedule(
+            &F16::new(NOMINAL_XCG)?,
+            &F16::new(REFUELLING_DESIGN_XCG)?,
+        )?;
         std::fs::write(path, codegen::render(&s, &refuel, &schedule))
             .map_err(|e| format!("{}: {e}", path.display()))?;
         eprintln!("wrote {}", path.display());

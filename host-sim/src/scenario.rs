@@ -186,8 +186,8 @@ pub struct CameraSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ReceiverSection {
-    /// Centre of gravity, fraction of the mean aerodynamic chord (the gains are designed at
-    /// 0.35; the receiver trims at this one).
+    /// Centre of gravity, fraction of the mean aerodynamic chord (the paper's gains are
+    /// designed at 0.35, the refuelling procedure's at 0.40; the receiver trims at this one).
     pub xcg: f64,
 }
 

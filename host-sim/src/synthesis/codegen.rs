@@ -172,8 +172,8 @@ fn schedule_text(schedule: &Schedule) -> String {
 }
 
 /// The module's full text: the paper's procedure's design `s` and the refuelling
-/// procedure's `refuel` (the same plant, trim and engine model; other weights), and the gain
-/// schedule over the docking envelope.
+/// procedure's `refuel` (other weights, on the airframe at its design cg; the tables keep
+/// `s`'s trim, engine and predictor models), and the gain schedule over the docking envelope.
 pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String {
     let t = &s.trim;
     let w = &s.weights;
@@ -243,8 +243,9 @@ pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String 
     let (rw, _) = (&refuel.weights, ());
     let _ = write!(
         out,
-        "\n/// The refuelling procedure's design, weights (diagonal): lon Q {:?}, R {:?}; lat Q {:?}, R {:?}.\n",
-        rw.lon_q, rw.lon_r, rw.lat_q, rw.lat_r
+        "\n/// The refuelling procedure's design, on the airframe at cg {} (the paper's design: {}), \
+         weights (diagonal): lon Q {:?}, R {:?}; lat Q {:?}, R {:?}.\n",
+        refuel.xcg, s.xcg, rw.lon_q, rw.lon_r, rw.lat_q, rw.lat_r
     );
     out.push_str(&channel(
         "REFUEL_LON",

@@ -28,12 +28,13 @@ pub const SCHEDULE_SPEEDS_MPS: [f64; 4] = [100.0, 120.0, 145.0, 170.0];
 pub const SCHEDULE_ALTITUDES_M: [f64; 4] = [500.0, 3000.0, 5500.0, 8000.0];
 
 /// One grid node: the paper's procedure's design and the refuelling procedure's, at the
-/// same trim.
+/// same condition (the refuelling one on the airframe at its design cg; the core's tables
+/// take the trim and models from `paper`, the gains from each).
 #[derive(Debug, Clone)]
 pub struct ScheduleNode {
     /// With [`DesignWeights::default`].
     pub paper: Synthesis,
-    /// With [`DesignWeights::refuelling`].
+    /// With [`DesignWeights::refuelling`], at [`super::REFUELLING_DESIGN_XCG`].
     pub refuel: Synthesis,
 }
 
@@ -56,9 +57,16 @@ pub struct ScheduleError {
     pub source: SynthesisError,
 }
 
-/// Synthesises both designs at one condition for the receiver `model`.
-pub fn node(model: &F16, speed_mps: f64, altitude_m: f64) -> Result<ScheduleNode, ScheduleError> {
-    let design = |w: &DesignWeights| {
+/// Synthesises both designs at one condition: the paper's on the receiver `model`, the
+/// refuelling procedure's on `refuel_model` (the airframe at its design cg,
+/// [`super::REFUELLING_DESIGN_XCG`]); the node's trim and models are `model`'s.
+pub fn node(
+    model: &F16,
+    refuel_model: &F16,
+    speed_mps: f64,
+    altitude_m: f64,
+) -> Result<ScheduleNode, ScheduleError> {
+    let design = |model: &F16, w: &DesignWeights| {
         synthesize(
             model,
             speed_mps,
@@ -74,19 +82,20 @@ pub fn node(model: &F16, speed_mps: f64, altitude_m: f64) -> Result<ScheduleNode
         })
     };
     Ok(ScheduleNode {
-        paper: design(&DesignWeights::default())?,
-        refuel: design(&DesignWeights::refuelling())?,
+        paper: design(model, &DesignWeights::default())?,
+        refuel: design(refuel_model, &DesignWeights::refuelling())?,
     })
 }
 
-/// The schedule for the receiver `model` (the nominal one for the core's tables).
-pub fn synthesize_schedule(model: &F16) -> Result<Schedule, ScheduleError> {
+/// The schedule for the receiver `model` (the nominal one for the core's tables), the
+/// refuelling gains designed on `refuel_model` (see [`node`]).
+pub fn synthesize_schedule(model: &F16, refuel_model: &F16) -> Result<Schedule, ScheduleError> {
     let nodes = SCHEDULE_ALTITUDES_M
         .iter()
         .map(|&h| {
             SCHEDULE_SPEEDS_MPS
                 .iter()
-                .map(|&v| node(model, v, h))
+                .map(|&v| node(model, refuel_model, v, h))
                 .collect::<Result<Vec<_>, _>>()
         })
         .collect::<Result<Vec<_>, _>>()?;
