@@ -8,7 +8,7 @@
 
 use host_sim::receiver::F16;
 use host_sim::synthesis::schedule::{ScheduleNode, node};
-use host_sim::synthesis::{NOMINAL_XCG, Synthesis, linalg::spectral_radius};
+use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_DESIGN_XCG, Synthesis, linalg::spectral_radius};
 use nalgebra::DMatrix;
 
 /// The cell of `axis` that holds `x` and the fraction across it (a shared node belongs to
@@ -32,6 +32,7 @@ fn keep(w: &mut Worst, value: f64, v: f64, h: f64) {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = F16::new(NOMINAL_XCG)?;
+    let refuel_model = F16::new(REFUELLING_DESIGN_XCG)?;
     let grids: [(&[f64], &[f64]); 4] = [
         (&[100.0, 170.0], &[500.0, 8000.0]),
         (&[100.0, 120.0, 170.0], &[500.0, 3000.0, 8000.0]),
@@ -48,12 +49,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let lattice_h: Vec<f64> = (0..=15).map(|i| 500.0 + 500.0 * f64::from(i)).collect();
     let truth: Vec<Vec<ScheduleNode>> = lattice_h
         .iter()
-        .map(|&h| lattice_v.iter().map(|&v| node(&model, v, h)).collect())
+        .map(|&h| {
+            lattice_v
+                .iter()
+                .map(|&v| node(&model, &refuel_model, v, h))
+                .collect()
+        })
         .collect::<Result<_, _>>()?;
     for (gv, gh) in grids {
         let nodes: Vec<Vec<ScheduleNode>> = gh
             .iter()
-            .map(|&h| gv.iter().map(|&v| node(&model, v, h)).collect())
+            .map(|&h| {
+                gv.iter()
+                    .map(|&v| node(&model, &refuel_model, v, h))
+                    .collect()
+            })
             .collect::<Result<_, _>>()?;
         for (design, pick) in [
             (

@@ -4,7 +4,9 @@
 
 use host_sim::receiver::F16;
 use host_sim::synthesis::schedule::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, node};
-use host_sim::synthesis::{ChannelDesign, NOMINAL_XCG, linalg::spectral_radius};
+use host_sim::synthesis::{
+    ChannelDesign, NOMINAL_XCG, REFUELLING_DESIGN_XCG, linalg::spectral_radius,
+};
 use ibvs_core::inner::ChannelGains;
 use ibvs_core::schedule::{FlightCondition, design_at};
 use nalgebra::DMatrix;
@@ -59,6 +61,7 @@ fn off_grid_points() -> Vec<(f64, f64)> {
 #[test]
 fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995_between_nodes() {
     let model = F16::new(NOMINAL_XCG).expect("model");
+    let refuel_model = F16::new(REFUELLING_DESIGN_XCG).expect("model");
     let points = off_grid_points();
     assert_eq!(
         points.len(),
@@ -67,7 +70,7 @@ fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995
     );
     let mut worst = (0.0, String::new());
     for (v, h) in points {
-        let truth = node(&model, v, h).expect("synthesis at the point");
+        let truth = node(&model, &refuel_model, v, h).expect("synthesis at the point");
         let d = design_at(FlightCondition {
             true_airspeed_mps: v as f32,
             altitude_m: h as f32,
@@ -110,9 +113,13 @@ fn the_interpolated_trim_is_within_half_a_degree_and_0_06_throttle_of_the_true_t
     // corner). A trim error is a bias the integrators take out: half a degree is a few tenths
     // of a metre per second of climb rate, 0.05 throttle about 2 % of thrust, before they do.
     let model = F16::new(NOMINAL_XCG).expect("model");
+    let refuel_model = F16::new(REFUELLING_DESIGN_XCG).expect("model");
     let (mut worst_alpha, mut worst_throttle) = (0.0_f64, 0.0_f64);
     for (v, h) in off_grid_points() {
-        let truth = node(&model, v, h).expect("synthesis").paper.trim;
+        let truth = node(&model, &refuel_model, v, h)
+            .expect("synthesis")
+            .paper
+            .trim;
         let d = design_at(FlightCondition {
             true_airspeed_mps: v as f32,
             altitude_m: h as f32,
