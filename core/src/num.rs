@@ -174,6 +174,14 @@ impl HypotLimit {
     }
 }
 
+/// Whether `(my² << 15) >> d` drops set bits, for a significand `my` (24 bits, leading bit
+/// set) and `d < 64`: `my²` ends in twice `my`'s trailing zeros, so the lowest set bit of
+/// `my² << 15` is bit `15 + 2 tz`.
+#[inline(always)]
+fn shifts_out_set_bits(my: u32, d: u32) -> bool {
+    15 + 2 * my.trailing_zeros() < d
+}
+
 /// The bits of `(x as f64 * x as f64 + y as f64 * y as f64) as f32` for normal `x >= y > 0`
 /// whose squares and their sum lie in the normal range of `f32` (what `hypotf` computes
 /// after its special cases and scaling), in integer arithmetic.
@@ -191,10 +199,7 @@ fn sum_of_squares_bits(x: f32, y: f32) -> u32 {
     // before hypotf scaled it up (then up to 96).
     let d = 2 * (ex - ey);
     let (t, sticky) = if d < 64 {
-        (
-            (a << 15) + ((b << 15) >> d),
-            15 + 2 * my.trailing_zeros() < d,
-        )
+        ((a << 15) + ((b << 15) >> d), shifts_out_set_bits(my, d))
     } else {
         (a << 15, true)
     };
@@ -413,6 +418,80 @@ mod tests {
             }
         }
         assert!(ties53 > 1000 && ties24 > 1000, "ties {ties53} / {ties24}");
+    }
+
+    #[test]
+    fn the_sticky_bit_is_set_exactly_when_the_shift_drops_a_set_bit() {
+        // Every trailing-zero count of a significand, and the shifts the sum uses (even:
+        // twice a difference of exponents), against the bits the shift really drops.
+        for tz in 0..24 {
+            for my in [0x0080_0000 | 1 << tz, 0x00FF_FFFF & !((1 << tz) - 1)] {
+                let b = (u64::from(my) * u64::from(my)) << 15;
+                for d in (0..64).step_by(2) {
+                    let dropped = b & ((1u64 << d) - 1) != 0;
+                    assert_eq!(shifts_out_set_bits(my, d), dropped, "{my:#x} >> {d}");
+                }
+            }
+        }
+        // End to end: x² = 1 + 2^-11 + 2^-24 lies halfway between two floats, and a y² just
+        // above 2^-53 (a significand just above the square root of 2) puts the sum's bit
+        // 2^-53 halfway between two doubles with set bits below it, shifted out of the
+        // 64-bit sum: the double rounds up (sticky), and the float up from there. Without
+        // the sticky bit both roundings would go to even, one float lower.
+        let x = f32::from_bits(127 << 23 | 1 << 11);
+        for m in 11_863_284u32..11_863_300 {
+            let y = f32::from_bits((127 - 27) << 23 | (m & 0x007F_FFFF));
+            let want = (f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y)) as f32;
+            assert_eq!(sum_of_squares_bits(x, y), want.to_bits(), "{x:e} {y:e}");
+        }
+        let y = f32::from_bits((127 - 27) << 23 | (11_863_284 & 0x007F_FFFF));
+        assert_eq!(
+            sum_of_squares_bits(x, y),
+            f32::from_bits(127 << 23 | 1 << 12 | 1).to_bits()
+        );
+    }
+
+    #[test]
+    fn a_tie_at_53_bits_that_rounds_down_onto_a_tie_at_24_goes_to_even_twice() {
+        // x² + y² exactly halfway between two doubles, the lower of which is exactly halfway
+        // between two floats whose lower one is even: double rounding goes down both times.
+        // With significands mx, my and y 2^-g below x, the sum is mx² 4^g + my² on an
+        // integer scale; it has that shape when it is Q 2^30 + 2^29 + 1 with Q an even
+        // 24-bit number. Pick mx, solve my² = 2^29 + 1 - mx² 4^g (mod 2^30) by lifting a
+        // square root bit by bit, and keep the roots that are 24-bit significands.
+        let mut found = 0;
+        for g in [3u32, 4] {
+            for mx in (0x0080_0000u64..0x0100_0000).step_by(4099) {
+                let c = ((1u64 << 29) + 1).wrapping_sub(mx * mx << (2 * g)) & ((1 << 30) - 1);
+                // c = 1 (mod 8): r = 1 is a root mod 8; lift to mod 2^30.
+                let mut r = 1u64;
+                for k in 3..30 {
+                    if (r * r).wrapping_sub(c) & ((1 << (k + 1)) - 1) != 0 {
+                        r += 1 << (k - 1);
+                    }
+                }
+                let m30 = 1u64 << 30;
+                for my in [
+                    r,
+                    m30 - r,
+                    (r + (1 << 29)) % m30,
+                    (m30 - r + (1 << 29)) % m30,
+                ] {
+                    let p = (mx * mx << (2 * g)) + my * my;
+                    let shape = p >> 30 & 1 == 0 && p & ((1 << 30) - 1) == (1 << 29) + 1;
+                    if !(0x0080_0000..0x0100_0000).contains(&my) || p >> 53 != 1 || !shape {
+                        continue;
+                    }
+                    let x = f32::from_bits(127 << 23 | (mx as u32 & 0x007F_FFFF));
+                    let y = f32::from_bits((127 - g) << 23 | (my as u32 & 0x007F_FFFF));
+                    assert_eq!(ties(x, y), (true, true), "{x:e} {y:e}");
+                    let want = (f64::from(x) * f64::from(x) + f64::from(y) * f64::from(y)) as f32;
+                    assert_eq!(sum_of_squares_bits(x, y), want.to_bits(), "{x:e} {y:e}");
+                    found += 1;
+                }
+            }
+        }
+        assert!(found >= 20, "{found} cases");
     }
 
     #[test]
