@@ -36,7 +36,9 @@ pub const REFUELLING_ALTITUDE_M: f64 = 3000.0;
 pub const NOMINAL_XCG: f64 = 0.35;
 /// The cg the refuelling procedure's gains are designed at: the aft end of the receiver's
 /// range (0.30..0.40), where the airframe is least stable. The trim, the engine and the
-/// latency predictor's models stay the nominal cg's; only the gain comes from this airframe.
+/// latency predictor's models stay the nominal cg's; the gains come from this airframe, with
+/// the camera-velocity output matrix they were designed with (`c_cg`: its trim's pitch enters
+/// the lateral row's bank term, -12.65 m/s per rad here against -13.26 at the nominal cg).
 /// Designed at the nominal cg, the gains flew the aft-cg receivers into losses of control in
 /// MIL-F-8785C 10^-2 air (in 1,000 `mil-level2` sorties: 80 `NavLost`, mean cg of those 0.364
 /// against 0.350 over all; the two looked at, at 0.399 and 0.398, each a pitch-up past 18 deg
