@@ -43,9 +43,10 @@ pub const NOMINAL_XCG: f64 = 0.35;
 /// MIL-F-8785C 10^-2 air (in 1,000 `mil-level2` sorties: 80 `NavLost`, mean cg of those 0.364
 /// against 0.350 over all; the two looked at, at 0.399 and 0.398, each a pitch-up past 18 deg
 /// of angle of attack with the elevator rate-limited); designed here, 38, with no cg trend
-/// left. Over 10,000 sorties: `mil-level2` 76.7 % -> 81.5 % docked, at a small cost in milder
-/// air (`level2` first attempt 95.3 % -> 94.8 %, miss p95 0.177 -> 0.183 m): docs/conventions.md,
-/// "Inner loops for refuelling"; docs/scenarios.md, "Measured: the refuelling presets".
+/// left. Over 10,000 sorties: `mil-level2` 76.7 % -> 81.5 % docked, at a small cost in
+/// milder air (`level2` first attempt 95.3 % -> 94.8 %, miss p95 0.177 -> 0.183 m):
+/// docs/conventions.md, "Inner loops for refuelling"; docs/scenarios.md, "Measured: the
+/// refuelling presets".
 pub const REFUELLING_DESIGN_XCG: f64 = 0.40;
 /// Control period the core runs at, s.
 pub const CONTROL_PERIOD_S: f64 = 0.02;
