@@ -41,6 +41,17 @@ fn frame(seq: u32, x: f32, y: f32, depth_m: f32) -> CameraMeasurement {
     }
 }
 
+/// One step's input in the paper's approach: frame `seq` with the drogue a little right of
+/// and above the centre at 6 m, moving by 1e-4 from step to step (never a frozen image).
+fn approach_input(seq: u32, request: ModeRequest, nav: NavSample) -> ControllerInput {
+    ControllerInput {
+        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
+        nav,
+        probe_contact: false,
+        request,
+    }
+}
+
 const FLAGS: [(&str, u16); 11] = [
     ("MEASUREMENT_HELD", StatusFlags::MEASUREMENT_HELD),
     ("NAV_HELD", StatusFlags::NAV_HELD),
@@ -464,16 +475,12 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
 fn the_paper_procedure_has_no_gate_figure() {
     let mut ctl = Controller::new(ControllerConfig::paper()).expect("valid configuration");
     for seq in 1..30 {
-        let out = ctl.step(&ControllerInput {
-            measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
-            nav: NavSample::default(),
-            probe_contact: false,
-            request: if seq == 1 {
-                ModeRequest::Engage
-            } else {
-                ModeRequest::None
-            },
-        });
+        let request = if seq == 1 {
+            ModeRequest::Engage
+        } else {
+            ModeRequest::None
+        };
+        let out = ctl.step(&approach_input(seq, request, NavSample::default()));
         assert_eq!(out.mode, Mode::Approach);
         assert_eq!(out.predicted_miss_m, f32::INFINITY, "step {seq}");
     }
@@ -592,20 +599,15 @@ fn an_open_loop_breakaway_held_at_a_throttle_stop_reports_both() {
     let mut cfg = ControllerConfig::paper();
     cfg.actuators.min[1] = TRIM.throttle - 0.5 * cfg.modes.breakaway_throttle_cut;
     let mut ctl = Controller::new(cfg).expect("valid configuration");
-    let input = |seq, request, nav| ControllerInput {
-        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
-        nav,
-        probe_contact: false,
-        request,
-    };
     let trim_nav = NavSample::default();
     assert_eq!(
-        ctl.step(&input(1, ModeRequest::Engage, trim_nav)).mode,
+        ctl.step(&approach_input(1, ModeRequest::Engage, trim_nav))
+            .mode,
         Mode::Approach
     );
     let mut bad_nav = trim_nav;
     bad_nav.lon.v_mps = f32::INFINITY;
-    let out = ctl.step(&input(2, ModeRequest::Abort, bad_nav));
+    let out = ctl.step(&approach_input(2, ModeRequest::Abort, bad_nav));
     assert_eq!(out.mode, Mode::Breakaway);
     assert_eq!(out.command.throttle, cfg.actuators.min[1]);
     assert!(
@@ -628,19 +630,13 @@ fn a_held_navigation_sample_with_a_surface_at_its_stop_reports_both() {
     let mut ctl = Controller::new(cfg).expect("valid configuration");
     let mut nav = NavSample::default();
     nav.lon.theta_rad = 0.01;
-    let input = |seq, request, nav| ControllerInput {
-        measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
-        nav,
-        probe_contact: false,
-        request,
-    };
     assert_eq!(
-        ctl.step(&input(1, ModeRequest::Engage, nav)).mode,
+        ctl.step(&approach_input(1, ModeRequest::Engage, nav)).mode,
         Mode::Approach
     );
     let mut bad = nav;
     bad.lat.p_radps = f32::NAN;
-    let out = ctl.step(&input(2, ModeRequest::None, bad));
+    let out = ctl.step(&approach_input(2, ModeRequest::None, bad));
     assert_eq!(out.mode, Mode::Approach);
     let both = StatusFlags::NAV_HELD | StatusFlags::SATURATED_ELEVATOR;
     assert!(out.status.contains(both), "{:#x}", out.status.0);
