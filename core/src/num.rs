@@ -451,6 +451,20 @@ mod tests {
         );
     }
 
+    /// The four square roots of `c` modulo `2^bits` (`c` = 1 mod 8, `3 < bits < 64`): a root
+    /// mod 8 lifted one bit at a time (if `r` is a root mod `2^k`, `r` or `r + 2^(k-1)` is one
+    /// mod `2^(k+1)`), then its negation and both shifted by `2^(bits-1)`.
+    fn square_roots_mod_2k(c: u64, bits: u32) -> [u64; 4] {
+        let mut r = 1u64;
+        for k in 3..bits {
+            if r.wrapping_mul(r).wrapping_sub(c) & ((1 << (k + 1)) - 1) != 0 {
+                r += 1 << (k - 1);
+            }
+        }
+        let (m, half) = (1u64 << bits, 1u64 << (bits - 1));
+        [r, m - r, (r + half) % m, (m - r + half) % m]
+    }
+
     #[test]
     fn a_tie_at_53_bits_that_rounds_down_onto_a_tie_at_24_goes_to_even_twice() {
         // x² + y² exactly halfway between two doubles, the lower of which is exactly halfway
@@ -463,20 +477,7 @@ mod tests {
         for g in [3u32, 4] {
             for mx in (0x0080_0000u64..0x0100_0000).step_by(4099) {
                 let c = ((1u64 << 29) + 1).wrapping_sub((mx * mx) << (2 * g)) & ((1 << 30) - 1);
-                // c = 1 (mod 8): r = 1 is a root mod 8; lift to mod 2^30.
-                let mut r = 1u64;
-                for k in 3..30 {
-                    if (r * r).wrapping_sub(c) & ((1 << (k + 1)) - 1) != 0 {
-                        r += 1 << (k - 1);
-                    }
-                }
-                let m30 = 1u64 << 30;
-                for my in [
-                    r,
-                    m30 - r,
-                    (r + (1 << 29)) % m30,
-                    (m30 - r + (1 << 29)) % m30,
-                ] {
+                for my in square_roots_mod_2k(c, 30) {
                     let p = ((mx * mx) << (2 * g)) + my * my;
                     let shape = p >> 30 & 1 == 0 && p & ((1 << 30) - 1) == (1 << 29) + 1;
                     if !(0x0080_0000..0x0100_0000).contains(&my) || p >> 53 != 1 || !shape {
@@ -508,15 +509,7 @@ mod tests {
                 let target = (1u64 << (29 + j)) + 1;
                 for mx in (0x0080_0000u64..0x0100_0000).step_by(8191) {
                     let c = target.wrapping_sub((mx * mx) << (2 * g)) & ((1 << bits) - 1);
-                    let mut r = 1u64;
-                    for k in 3..bits {
-                        if r.wrapping_mul(r).wrapping_sub(c) & ((1 << (k + 1)) - 1) != 0 {
-                            r += 1 << (k - 1);
-                        }
-                    }
-                    let m = 1u64 << bits;
-                    let half = 1u64 << (bits - 1);
-                    for my in [r, m - r, (r + half) % m, (m - r + half) % m] {
+                    for my in square_roots_mod_2k(c, bits) {
                         if !(0x0080_0000..0x0100_0000).contains(&my) {
                             continue;
                         }
