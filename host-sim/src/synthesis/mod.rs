@@ -467,7 +467,7 @@ pub fn synthesize(
 /// The synthesis the checked-in core gains come from: refuelling condition, nominal cg,
 /// camera at the probe tip, the paper's procedure's weights ([`DesignWeights::default`]).
 pub fn nominal() -> Result<Synthesis, SynthesisError> {
-    nominal_with(&DesignWeights::default())
+    design_at(NOMINAL_XCG, &DesignWeights::default())
 }
 
 /// The refuelling procedure's design at the refuelling condition: its weights
@@ -478,10 +478,8 @@ pub fn nominal_refuelling() -> Result<Synthesis, SynthesisError> {
     design_at(REFUELLING_DESIGN_XCG, &DesignWeights::refuelling())
 }
 
-fn nominal_with(weights: &DesignWeights) -> Result<Synthesis, SynthesisError> {
-    design_at(NOMINAL_XCG, weights)
-}
-
+/// The synthesis at the refuelling condition, camera at the probe tip, on the airframe at
+/// cg `xcg`.
 fn design_at(xcg: f64, weights: &DesignWeights) -> Result<Synthesis, SynthesisError> {
     let model = F16::new(xcg)?;
     synthesize(
