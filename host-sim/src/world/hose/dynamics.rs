@@ -41,10 +41,12 @@ pub(super) struct Model {
     pub(super) normal_k: f64,
     /// `0.5 rho (pi D^2 / 4) Cd`, drogue: force = k |v| v.
     pub(super) drogue_k: f64,
-    /// Diameter over kinematic viscosity, s/m: `Re_d = |v| * this`.
-    pub(super) re_d_per_speed: f64,
-    /// Half circumference over kinematic viscosity, s/m: `Re_f = |v| * this`.
-    pub(super) re_f_per_speed: f64,
+    /// Logarithm of the diameter over the kinematic viscosity (s/m):
+    /// `ln Re_d = ln |v| + this`.
+    pub(super) ln_re_d_per_speed: f64,
+    /// Logarithm of the half circumference over the kinematic viscosity (s/m):
+    /// `ln Re_f = ln |v| + this`.
+    pub(super) ln_re_f_per_speed: f64,
     pub(super) law: HoseDragLaw,
 }
 
@@ -75,8 +77,8 @@ impl Model {
             skin_k: 0.5 * rho * std::f64::consts::PI * diameter * l,
             normal_k: 0.5 * rho * diameter * l,
             drogue_k: 0.5 * rho * drogue_area * p.drogue_drag_coefficient,
-            re_d_per_speed: diameter / nu,
-            re_f_per_speed: std::f64::consts::PI * p.hose_outer_radius_m / nu,
+            ln_re_d_per_speed: (diameter / nu).ln(),
+            ln_re_f_per_speed: (std::f64::consts::PI * p.hose_outer_radius_m / nu).ln(),
             law: p.hose_drag_law,
         }
     }
