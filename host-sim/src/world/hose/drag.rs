@@ -207,15 +207,22 @@ mod tests {
         let m = Model::new(&p);
         let nu = p.air_dynamic_viscosity_pa_s / p.air_density_kg_per_m3;
         let e = Vector3::new(0.6, 0.0, 0.8);
-        for rel in [Vector3::new(-120.0, 3.0, -2.0), Vector3::new(0.0, 0.01, 0.0)] {
+        for rel in [
+            Vector3::new(-120.0, 3.0, -2.0),
+            Vector3::new(0.0, 0.01, 0.0),
+        ] {
             let speed = rel.norm();
             let cd_ = cd(speed * 2.0 * p.hose_outer_radius_m / nu);
             let cf_ = cf(speed * std::f64::consts::PI * p.hose_outer_radius_m / nu);
             let v_t = rel.dot(&e);
             let v_n = rel - e * v_t;
-            let want = e * (m.skin_k * cf_ * v_t * v_t.abs()) + v_n * (m.normal_k * cd_ * v_n.norm());
+            let want =
+                e * (m.skin_k * cf_ * v_t * v_t.abs()) + v_n * (m.normal_k * cd_ * v_n.norm());
             let got = m.link_aero(rel, e);
-            assert!((got - want).norm() <= 1e-12 * want.norm(), "{got} vs {want}");
+            assert!(
+                (got - want).norm() <= 1e-12 * want.norm(),
+                "{got} vs {want}"
+            );
         }
         assert_eq!(m.link_aero(Vector3::zeros(), e), Vector3::zeros());
     }
