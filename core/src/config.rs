@@ -442,6 +442,9 @@ config_rules! {
     positive refuelling.station_gain_per_s;
     positive refuelling.station_max_speed_mps;
     positive refuelling.station_offset_tol_m;
+    positive refuelling.station_clear_offset_m;
+    holds refuelling.station_clear_offset_m
+        if refuelling.station_clear_offset_m < refuelling.abort_offset_m;
     positive refuelling.station_depth_tol_m;
     positive refuelling.station_overrun_m;
     positive refuelling.station_drogue_speed_tol_mps;

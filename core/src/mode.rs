@@ -38,7 +38,7 @@
 //! | missed approach | measurement invalid for longer than `reacquire_limit_s` | Breakaway(MeasurementLost) |
 //! | pre-contact, missed approach | `sortie_budget_s` elapsed since engage | Breakaway(SortieTimeout) |
 //! | pre-contact | estimated depth < `station_depth_m - station_overrun_m` | Breakaway(StationOverrun) |
-//! | pre-contact | stable (estimate inside the station limits) on `station_dwell_s` worth of consecutive valid frames (lost frames between them neither count nor restart the dwell) | Approach |
+//! | pre-contact | stable (estimate inside the station limits) on `station_dwell_s` worth of consecutive valid frames (lost frames between them neither count nor restart the dwell), and on a valid frame the drogue itself within `station_clear_offset_m` of the tip | Approach |
 //! | approach | estimated radial offset > `abort_offset_m` | MissedApproach(OffsetTooLarge), or Breakaway(AttemptsExhausted) on the last attempt |
 //! | approach | estimated depth <= `commit_depth_m`, predicted miss > `gate_radius_m` | MissedApproach(PredictedMiss), or Breakaway(AttemptsExhausted) on the last attempt |
 //! | approach | estimated depth <= `commit_depth_m` | Terminal (capture) |
@@ -320,6 +320,7 @@ pub struct RefuelLimits {
     reacquire_steps: u32,
     sortie_steps: u32,
     station_offset_sq: f32,
+    station_clear_offset_sq: f32,
     station_drogue_speed_sq: f32,
     station_relative_speed_sq: f32,
     abort_offset_sq: f32,
@@ -343,6 +344,7 @@ impl RefuelLimits {
             reacquire_steps: steps(cfg.reacquire_limit_s, ts_s),
             sortie_steps: steps(cfg.sortie_budget_s, ts_s),
             station_offset_sq: sq(cfg.station_offset_tol_m),
+            station_clear_offset_sq: sq(cfg.station_clear_offset_m),
             station_drogue_speed_sq: sq(cfg.station_drogue_speed_tol_mps),
             station_relative_speed_sq: sq(cfg.station_relative_speed_tol_mps),
             abort_offset_sq: sq(cfg.abort_offset_m),
@@ -778,7 +780,10 @@ impl ModeMachine {
                             0
                         };
                     }
-                    if self.stable_steps >= rl.dwell_steps {
+                    if self.stable_steps >= rl.dwell_steps
+                        && valid
+                        && sq(e.offset_m) <= rl.station_clear_offset_sq
+                    {
                         self.enter(Mode::Approach);
                         self.no_go = None;
                     }
@@ -1424,6 +1429,49 @@ mod tests {
         );
         assert_eq!(m.mode(), Mode::Terminal);
         (m, rc, lim)
+    }
+
+    #[test]
+    fn the_approach_is_cleared_only_with_the_drogue_itself_near_the_tip() {
+        // Stable at the station on the drogue's mean position, the drogue itself half a
+        // swing away: the dwell completes, the approach waits; it starts on the first valid
+        // frame with the drogue within the clearance (inclusive), not on an invalid one.
+        let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
+        let lim = ModeLimits::for_procedure(&cfg, &vel(), Procedure::Refuelling, &rc, TS);
+        let mut m = ModeMachine::default();
+        let go = |m: &mut ModeMachine, inp: &ModeInputs| m.advance(inp, &cfg, &rc, TS, &lim);
+        let swung = |offset_m: f32| {
+            let mut inp = refuel_inputs(0.0, rc.station_depth_m, f32::INFINITY);
+            inp.refuel.estimate.offset_m = [0.0, offset_m];
+            inp
+        };
+        let away = swung(above(rc.station_clear_offset_m));
+        go(
+            &mut m,
+            &ModeInputs {
+                request: ModeRequest::Engage,
+                ..away
+            },
+        );
+        for _ in 0..=2 * steps(rc.station_dwell_s, TS) {
+            go(&mut m, &away);
+            assert_eq!(m.mode(), Mode::PreContact);
+        }
+        let near = swung(rc.station_clear_offset_m);
+        go(
+            &mut m,
+            &ModeInputs {
+                target: None,
+                ..near
+            },
+        );
+        assert_eq!(
+            m.mode(),
+            Mode::PreContact,
+            "an invalid frame does not clear"
+        );
+        go(&mut m, &near);
+        assert_eq!(m.mode(), Mode::Approach);
     }
 
     /// The next float above a positive `x`.

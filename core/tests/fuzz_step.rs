@@ -591,7 +591,10 @@ impl ModeModel {
                     if meas_ok {
                         self.stable = if stable { self.stable + 1 } else { 0 };
                     }
-                    if self.stable >= steps(rc.station_dwell_s) {
+                    if self.stable >= steps(rc.station_dwell_s)
+                        && meas_ok
+                        && sq(e.offset_m) <= sq_tol(rc.station_clear_offset_m)
+                    {
                         (self.mode, self.no_go) = (Mode::Approach, None);
                     }
                 }
