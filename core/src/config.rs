@@ -476,6 +476,15 @@ config_rules! {
     non_negative refuelling.gate_sigmas;
     non_negative refuelling.missed_down_mps;
     holds refuelling.feedforward_lead_s if refuelling.feedforward_lead_s <= 5.0;
+    non_negative estimator.drogue_swing_period_s;
+    positive estimator.drogue_accel_time_constant_s;
+    holds estimator.drogue_accel_time_constant_s
+        if estimator.drogue_accel_time_constant_s >= gains::CONTROL_PERIOD_S;
+    // The swing's phase over the lead within a quarter swing (and `sin_cos`'s range).
+    holds refuelling.feedforward_lead_s
+        if refuelling.feedforward_lead_s * 2.0 * core::f32::consts::PI
+            <= crate::estimator::MAX_SWING_LEAD_RAD * estimator.drogue_swing_period_s
+            || estimator.drogue_swing_period_s == 0.0;
     holds refuelling.gate_max_horizon_s
         if refuelling.gate_max_horizon_s <= 1.5 * estimator.drogue_time_constant_s;
     holds refuelling.contact_speed_mps

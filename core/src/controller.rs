@@ -274,7 +274,11 @@ impl Derived {
                 ]
             },
             missed_slew_step_mps: cfg.refuelling.missed_accel_mps2 * Controller::PERIOD_S,
-            estimator: EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S),
+            estimator: EstimatorModel::new(
+                &cfg.estimator,
+                Controller::PERIOD_S,
+                cfg.refuelling.feedforward_lead_s,
+            ),
             tip: TipGeometry::new(
                 &cfg.camera,
                 cfg.probe_tip_body_m,
@@ -531,10 +535,9 @@ impl Controller {
     fn mode_velocity(&self, est: &DrogueEstimate) -> VelocityRe {
         let md = &self.cfg.modes;
         let track = |fwd| {
-            let lead = self.cfg.refuelling.feedforward_lead_s;
             let ahead = self
                 .estimator
-                .drogue_velocity_ahead(lead, &self.derived.estimator);
+                .drogue_velocity_ahead(&self.derived.estimator);
             procedure::desired_velocity(
                 est,
                 ahead,

@@ -22,11 +22,16 @@
 //!
 //! the drogue's velocity a first-order Gauss-Markov process whose correlation time `τ` and
 //! intensity `q` are fitted to the simulated hose's response to Dryden turbulence
-//! (`host-sim drogue-model`: the velocity's autocorrelation falls to 1/e in about 1.3 s).
-//! The hose's swinging mode (period 3.9 s) would be the better physical model, but its
-//! displacement from the trail's equilibrium is not observable enough: with the few cm/s of
-//! error in the navigation's tip velocity, a filter carrying it predicted a swing of 0.24 m
-//! at 1.2 s for a drogue at rest in calm air (measured, `docs/conventions.md`). Discretised
+//! (`host-sim/examples/drogue_model.rs`: the velocity's autocorrelation falls to 1/e in
+//! about 1.3 s). The hose's swinging mode (period 3.9 s) would be the better physical model
+//! for the filter, but its displacement from the trail's equilibrium is not observable
+//! enough: with the few cm/s of error in the navigation's tip velocity, a filter carrying it
+//! predicted a swing of 0.24 m at 1.2 s for a drogue at rest in calm air (measured,
+//! `docs/conventions.md`). The swing enters where it needs no displacement: the
+//! feed-forward's velocity a lead ahead ([`DrogueEstimator::drogue_velocity_ahead`]) carries
+//! the estimated velocity and its rate (the drogue's acceleration, the velocity's change
+//! low-passed) along a swing of the configured period, the phase a decaying velocity cannot
+//! give; a drogue at rest has neither, and nothing is predicted. Discretised
 //! exactly at construction (`Ts`-step transition and process noise of the Gauss-Markov
 //! process). Measurement noise grows with the camera's depth (`offset_noise_*`,
 //! `depth_noise_*`).
@@ -100,6 +105,16 @@ pub struct EstimatorConfig {
     /// Weight of a new measurement of the tip's image point in its running average (the
     /// tip is fixed in the camera's view: the average only removes the centroid noise).
     pub tip_sight_filter: f32,
+    /// Period of the hose's swinging mode, s: the feed-forward carries the drogue's estimated
+    /// velocity and acceleration over its lead along a swing of this period
+    /// ([`DrogueEstimator::drogue_velocity_ahead`]). Default 3.9 s, the simulated hose's
+    /// lateral mode (`docs/conventions.md`, "Drogue estimator"). 0: no swing, the velocity
+    /// decays over the lead as the Gauss-Markov model says (the earlier feed-forward).
+    pub drogue_swing_period_s: f32,
+    /// Time constant of the low-pass filter that takes the drogue's acceleration from the
+    /// change of its estimated velocity, s. Default 0.2 s: a twentieth of the swing, a
+    /// tenth of its phase (0.1 s and 0.35 s measured as good, `docs/scenarios.md`).
+    pub drogue_accel_time_constant_s: f32,
 }
 
 impl Default for EstimatorConfig {
@@ -120,6 +135,8 @@ impl Default for EstimatorConfig {
             max_rejections: 5,
             tip_sight_tolerance: 0.06,
             tip_sight_filter: 0.05,
+            drogue_swing_period_s: 3.9,
+            drogue_accel_time_constant_s: 0.2,
         }
     }
 }
@@ -434,11 +451,17 @@ pub struct EstimatorModel {
     /// Step of the offset's average, `Ts / mean_time_constant_s`.
     mean_step: f32,
     ts: f32,
+    /// Step of the acceleration's low-pass, `1 - exp(-Ts / drogue_accel_time_constant_s)`
+    /// (exact: stable at any period).
+    accel_step: f32,
+    /// The feed-forward's velocity `lead` ahead is `lead[0] v + lead[1] a`.
+    lead: [f32; 2],
 }
 
 impl EstimatorModel {
-    /// Discretises the model of `cfg` at the period `ts_s`.
-    pub fn new(cfg: &EstimatorConfig, ts_s: f32) -> Self {
+    /// Discretises the model of `cfg` at the period `ts_s`, with the feed-forward's lead
+    /// `lead_s` ([`DrogueEstimator::drogue_velocity_ahead`]).
+    pub fn new(cfg: &EstimatorConfig, ts_s: f32, lead_s: f32) -> Self {
         let tau = cfg.drogue_time_constant_s;
         Self {
             lateral: AxisModel::new(tau, cfg.drogue_accel_psd_m2ps3, ts_s),
@@ -452,6 +475,8 @@ impl EstimatorModel {
             activity_step: ts_s / cfg.activity_time_constant_s,
             mean_step: ts_s / cfg.mean_time_constant_s,
             ts: ts_s,
+            accel_step: 1.0 - libm::expf(-ts_s / cfg.drogue_accel_time_constant_s),
+            lead: swing_lead(cfg, lead_s),
         }
     }
 }
@@ -493,6 +518,11 @@ pub struct DrogueEstimator {
     activity: [f32; 2],
     /// Average of the offset, right and down, m.
     mean_offset: [f32; 2],
+    /// The drogue's acceleration, right and down (the change of the estimated velocity,
+    /// low-passed), m/s².
+    accel: [f32; 2],
+    /// The estimated velocity at the previous step, right and down, m/s.
+    velocity_before: [f32; 2],
     /// Consecutive rejected frames.
     rejections: u16,
     /// The filter holds an estimate (started from a frame).
@@ -532,6 +562,8 @@ impl DrogueEstimator {
             p: [if i < 2 { r_var } else { z_var }, 0.0, v0],
         });
         self.rejections = 0;
+        self.accel = [0.0; 2];
+        self.velocity_before = [0.0; 2];
         self.started = true;
     }
 
@@ -539,6 +571,15 @@ impl DrogueEstimator {
     /// `[right, down, forward]`, m/s (from navigation).
     #[inline(always)]
     pub fn predict(&mut self, tip_velocity_mps: [f32; 3], m: &EstimatorModel) {
+        for ((a, before), ax) in self
+            .accel
+            .iter_mut()
+            .zip(&mut self.velocity_before)
+            .zip(&self.axes)
+        {
+            *a += m.accel_step * ((ax.x[1] - *before) / m.ts - *a);
+            *before = ax.x[1];
+        }
         let [right, down, fwd] = &mut self.axes;
         m.lateral.predict(right, tip_velocity_mps[0], m.ts);
         m.lateral.predict(down, tip_velocity_mps[1], m.ts);
@@ -630,12 +671,17 @@ impl DrogueEstimator {
         self.activity.map(|a| m.psd_per_variance * a)
     }
 
-    /// The drogue's expected velocity `horizon_s` ahead, `[right, down]`, m/s (its velocity
-    /// now, decayed over the horizon as the model says).
+    /// The drogue's velocity the feed-forward's lead ahead, `[right, down]`, m/s: its
+    /// velocity and acceleration now carried along the hose's swing (or, with no swing
+    /// configured, its velocity decayed as the model says).
     #[inline(always)]
-    pub fn drogue_velocity_ahead(&self, horizon_s: f32, m: &EstimatorModel) -> [f32; 2] {
-        let f = libm::expf(-horizon_s / m.tau_s);
-        [self.axes[0].x[1] * f, self.axes[1].x[1] * f]
+    pub fn drogue_velocity_ahead(&self, m: &EstimatorModel) -> [f32; 2] {
+        [0, 1].map(|i| m.lead[0] * self.axes[i].x[1] + m.lead[1] * self.accel[i])
+    }
+
+    /// The drogue's acceleration estimate, `[right, down]`, m/s².
+    pub fn drogue_accel_mps2(&self) -> [f32; 2] {
+        self.accel
     }
 
     /// The offset `horizon_s` ahead if the probe tip kept the velocity `tip_velocity_mps`
@@ -664,6 +710,28 @@ impl DrogueEstimator {
     }
 }
 
+/// Longest lead along the swing, rad of its phase (a quarter swing: 0.255 of its period):
+/// beyond, the velocity now enters with the opposite sign, and a lead of 1 s on a 3.5 s
+/// swing (1.8 rad) docked fewer at the first attempt than 0.8 s (`docs/scenarios.md`).
+pub const MAX_SWING_LEAD_RAD: f32 = 2.0 * crate::num::SIN_COS_MAX_RAD;
+
+/// The feed-forward's coefficients `[kv, ka]`: the drogue's velocity `lead_s` ahead is
+/// `kv v + ka a`. On a swing of angular frequency `ω` (the configured period) a velocity
+/// `v` with acceleration `a` is `v cos ωh + (a / ω) sin ωh` after `h`: the swing's phase
+/// carried over the lead, which a decaying velocity cannot give (the inner loops' lateral
+/// lag is about 0.8 s, a fifth of the swing). The configuration keeps `ωh` within
+/// [`MAX_SWING_LEAD_RAD`]. Without a swing, `kv = exp(-h / τ)`, `ka = 0`.
+fn swing_lead(cfg: &EstimatorConfig, lead_s: f32) -> [f32; 2] {
+    if cfg.drogue_swing_period_s > 0.0 {
+        let w = 2.0 * core::f32::consts::PI / cfg.drogue_swing_period_s;
+        // Double angle: the validated lead keeps `ωh / 2` within `sin_cos`'s range.
+        let (s, c) = sin_cos(0.5 * w * lead_s);
+        [c * c - s * s, 2.0 * s * c / w]
+    } else {
+        [libm::expf(-lead_s / cfg.drogue_time_constant_s), 0.0]
+    }
+}
+
 /// Variances of a frame's lateral offset and depth at camera depth `z`, m².
 #[inline(always)]
 fn noise_variances(z: f32, cfg: &EstimatorConfig) -> (f32, f32) {
@@ -679,6 +747,7 @@ mod tests {
     use super::*;
 
     const TS: f32 = 0.02;
+    const LEAD_S: f32 = 0.8;
 
     fn tip_camera() -> TipGeometry {
         let cam = CameraMount {
@@ -803,7 +872,7 @@ mod tests {
 
     fn model() -> (EstimatorConfig, EstimatorModel) {
         let cfg = EstimatorConfig::default();
-        (cfg, EstimatorModel::new(&cfg, TS))
+        (cfg, EstimatorModel::new(&cfg, TS, LEAD_S))
     }
 
     #[test]
@@ -863,7 +932,7 @@ mod tests {
     }
 
     /// A drogue swinging at the hose's 0.25 Hz, seen by a fixed tip: the filter converges on
-    /// its offset and velocity.
+    /// its offset and velocity, and the feed-forward's velocity a lead ahead is the swing's.
     #[test]
     fn the_filter_tracks_a_swinging_drogue() {
         let (cfg, m) = model();
@@ -875,7 +944,17 @@ mod tests {
         };
         let mut e = DrogueEstimator::default();
         e.start(&frame(0.0), &cfg);
+        let no_swing = EstimatorModel::new(
+            &EstimatorConfig {
+                drogue_swing_period_s: 0.0,
+                ..cfg
+            },
+            TS,
+            LEAD_S,
+        );
         let mut worst = (0.0_f32, 0.0_f32);
+        // Worst error of the velocity a lead ahead: along the swing, and decayed.
+        let mut worst_ahead = (0.0_f32, 0.0_f32);
         for k in 1..500 {
             let t = k as f32 * TS;
             e.predict([0.0; 3], &m);
@@ -887,8 +966,22 @@ mod tests {
                 worst.0 = worst.0.max((est.offset_m[0] - r).abs());
                 worst.1 = worst.1.max((est.drogue_velocity_mps[0] - v).abs());
                 assert!((est.offset_m[1] + r).abs() < 0.01);
+                let later = truth(t + LEAD_S).1;
+                let ahead = e.drogue_velocity_ahead(&m);
+                worst_ahead.0 = worst_ahead.0.max((ahead[0] - later).abs());
+                assert!((ahead[1] + ahead[0]).abs() < 1e-6, "the down axis mirrors");
+                let decayed = e.drogue_velocity_ahead(&no_swing)[0];
+                worst_ahead.1 = worst_ahead.1.max((decayed - later).abs());
             }
         }
+        // The swing carries the velocity's phase over the lead (ωh = 1.28 rad): off by 0.20
+        // of the 0.48 m/s amplitude at worst (measured; the filter's velocity and the
+        // acceleration's low-pass lag the truth by about 0.35 s between them), where the
+        // decayed velocity, a fraction of the velocity now, is off by 0.50.
+        assert!(
+            worst_ahead.0 < 0.25 && worst_ahead.0 < 0.5 * worst_ahead.1,
+            "worst error a lead ahead: swing, decayed {worst_ahead:?}"
+        );
         assert!(
             worst.0 < 0.005 && worst.1 < 0.08,
             "worst offset, velocity error {worst:?}"
@@ -902,10 +995,15 @@ mod tests {
         let rms = e.drogue_speed_rms_mps();
         let want_rms = 0.3 * w / core::f32::consts::SQRT_2;
         assert!((rms / want_rms - 1.0).abs() < 0.15, "{rms} vs {want_rms}");
-        // Half a second ahead the velocity is expected to have decayed by exp(-0.5 / τ).
+        // With no swing, the velocity a lead ahead has decayed by exp(-lead / τ).
         let now = e.estimate().drogue_velocity_mps[0];
-        let ahead = e.drogue_velocity_ahead(0.5, &m)[0];
-        assert!((ahead - now * libm::expf(-0.5 / cfg.drogue_time_constant_s)).abs() < 1e-6);
+        let ahead = e.drogue_velocity_ahead(&no_swing)[0];
+        assert!((ahead - now * libm::expf(-LEAD_S / cfg.drogue_time_constant_s)).abs() < 1e-6);
+        // Along the swing: `v cos ωh + (a / ω) sin ωh`, with the filtered acceleration.
+        let wh = 2.0 * core::f32::consts::PI / cfg.drogue_swing_period_s * LEAD_S;
+        let a = e.drogue_accel_mps2()[0];
+        let along = now * libm::cosf(wh) + a * libm::sinf(wh) * LEAD_S / wh;
+        assert!((e.drogue_velocity_ahead(&m)[0] - along).abs() < 1e-5);
     }
 
     #[test]

@@ -373,7 +373,11 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
     let rc = &cfg.refuelling;
     let geometry = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad);
     let sight = TipSight::new(&geometry); // no tip sightings: the geometry's image point
-    let model = EstimatorModel::new(&cfg.estimator, Controller::PERIOD_S);
+    let model = EstimatorModel::new(
+        &cfg.estimator,
+        Controller::PERIOD_S,
+        cfg.refuelling.feedforward_lead_s,
+    );
     let mut twin = DrogueEstimator::default();
     // The drogue off the tip on both axes, so that both enter the radial mean.
     let (x, y) = (0.06_f32, -0.04_f32);

@@ -11,6 +11,8 @@
 use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, Restart, TipFrame};
 
 const TS: f32 = 0.02;
+/// The feed-forward's lead the models are built with (the refuelling default).
+const LEAD_S: f32 = 0.8;
 
 /// The process noise `[rr, rv, vv]` over `h` for `tau`, `psd`, by Simpson's rule.
 fn process_noise(tau: f64, psd: f64, h: f64) -> [f64; 3] {
@@ -92,7 +94,7 @@ fn the_discretisation_is_exact_at_a_period_beyond_one_and_a_half_time_constants(
 /// variance, average and prediction must agree.
 fn against_the_reference(ts_s: f32) {
     let cfg = EstimatorConfig::default();
-    let m = EstimatorModel::new(&cfg, ts_s);
+    let m = EstimatorModel::new(&cfg, ts_s, LEAD_S);
     let (tau, psd) = (
         f64::from(cfg.drogue_time_constant_s),
         f64::from(cfg.drogue_accel_psd_m2ps3),
@@ -218,8 +220,12 @@ fn against_the_reference(ts_s: f32) {
                 &format!("{h} s ahead, axis {i}: variance"),
             );
         }
-        // And the velocity ahead decays as exp(-h / τ).
-        let v = e.drogue_velocity_ahead(h, &m);
+        // And without a swing configured the velocity ahead decays as exp(-h / τ).
+        let no_swing = EstimatorConfig {
+            drogue_swing_period_s: 0.0,
+            ..cfg
+        };
+        let v = e.drogue_velocity_ahead(&EstimatorModel::new(&no_swing, ts_s, h));
         let decay = (-f64::from(h) / tau).exp();
         close(
             v[0],
@@ -241,7 +247,7 @@ fn the_measured_psd_starts_at_the_configured_one() {
     // At the start the activity is the configured PSD's stationary velocity variance,
     // q τ / 2, so the measured PSD, 2 E[v²] / τ, is q.
     let cfg = EstimatorConfig::default();
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, TS, LEAD_S);
     let mut e = DrogueEstimator::default();
     e.start(
         &TipFrame {
@@ -285,7 +291,7 @@ fn the_innovation_gate_is_gate_sigmas_standard_deviations() {
     // (inside the 6σ gate) is used, 7σ off is rejected.
     let cfg = EstimatorConfig::default();
     assert_eq!(cfg.gate_sigmas, 6.0);
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, TS, LEAD_S);
     let z = 3.0_f32;
     let start = TipFrame {
         drogue_from_tip_m: [0.0, 0.0, z],
@@ -314,7 +320,7 @@ fn after_max_rejections_in_a_row_the_next_rejected_frame_restarts_the_filter() {
     // without a restart; the one after restarts the filter from it.
     let cfg = EstimatorConfig::default();
     assert_eq!(cfg.max_rejections, 5);
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, TS, LEAD_S);
     let mut e = DrogueEstimator::default();
     e.start(
         &TipFrame {
@@ -343,7 +349,7 @@ fn a_non_finite_update_restarts_the_filter() {
     // The invariant of the module doc: the state stays finite; an update that is not (a NaN
     // in the frame: the controller's validation lets none through) restarts it.
     let cfg = EstimatorConfig::default();
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, TS, LEAD_S);
     let mut e = DrogueEstimator::default();
     e.start(
         &TipFrame {
@@ -372,7 +378,7 @@ fn an_innovation_exactly_on_the_gate_is_used() {
     // is the frame's offset itself; search the floats near 6σ for one whose square is the
     // threshold, exactly as the filter computes both.
     let cfg = EstimatorConfig::default();
-    let m = EstimatorModel::new(&cfg, TS);
+    let m = EstimatorModel::new(&cfg, TS, LEAD_S);
     let g2 = cfg.gate_sigmas * cfg.gate_sigmas;
     let mut found = 0;
     for z in [2.0_f32, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5] {
