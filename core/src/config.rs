@@ -465,6 +465,10 @@ config_rules! {
     positive refuelling.capture_timeout_s;
     positive refuelling.capture_min_time_to_go_s;
     positive refuelling.overshoot_m;
+    positive refuelling.capture_min_closing_mps;
+    holds refuelling.capture_min_closing_mps
+        if refuelling.capture_min_closing_mps < refuelling.contact_speed_mps
+            && refuelling.capture_min_closing_mps < refuelling.rough_air_contact_speed_mps;
     positive refuelling.missed_aft_mps;
     positive refuelling.missed_clear_s;
     positive refuelling.missed_accel_mps2;

@@ -633,6 +633,7 @@ impl Controller {
             estimate: est,
             tip_lateral_mps: [tip_mps[0], tip_mps[1]],
             predicted_miss_m,
+            closing_mps: est.closing_mps(tip_mps[2]),
         };
         (inputs, target, frame)
     }

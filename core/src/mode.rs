@@ -46,6 +46,7 @@
 //! | terminal | estimated depth < `-overshoot_m` | MissedApproach(PassedDroguePlane), or Breakaway(AttemptsExhausted) |
 //! | terminal | `capture_timeout_s` elapsed | MissedApproach(CaptureTimeout), or Breakaway(AttemptsExhausted) |
 //! | terminal | valid measurement and predicted miss > the late gate's radius (`late_gate_final_radius_m` at the plane, rising over `late_gate_taper_m` of depth to `late_gate_radius_m`) | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
+//! | terminal | valid measurement and estimated closing speed < `capture_min_closing_mps` | MissedApproach(ClosingTooSlow), or Breakaway(AttemptsExhausted) |
 //! | missed approach | `missed_clear_s` elapsed, valid measurement, estimated depth within `station_depth_tol_m` of the station | PreContact (next attempt) |
 //! | docked | probe contact lost | Breakaway(ContactLost) |
 //!
@@ -161,6 +162,9 @@ pub enum NoGoReason {
     PassedDroguePlane,
     /// The capture lasted longer than [`RefuellingConfig::capture_timeout_s`].
     CaptureTimeout,
+    /// In the capture, a valid frame's estimated closing speed was below
+    /// [`RefuellingConfig::capture_min_closing_mps`]: the contact would not latch.
+    ClosingTooSlow,
 }
 
 /// Parameters of the mode logic.
@@ -267,6 +271,9 @@ pub struct RefuelInputs {
     /// The gate's predicted radial miss at the drogue plane plus `gate_sigmas` standard
     /// deviations, m (computed in approach and terminal only).
     pub predicted_miss_m: f32,
+    /// The estimated closing speed on the drogue: the probe tip's forward velocity (from
+    /// navigation) minus the drogue's (estimated), both relative to the tanker, m/s.
+    pub closing_mps: f32,
 }
 
 /// State of the blind phase.
@@ -813,6 +820,8 @@ impl ModeMachine {
                     && inp.refuel.predicted_miss_m > rl.late_gate_radius_m(rc, e.depth_m)
                 {
                     self.no_go_to(NoGoReason::LateNoGo, rc);
+                } else if valid && inp.refuel.closing_mps < rc.capture_min_closing_mps {
+                    self.no_go_to(NoGoReason::ClosingTooSlow, rc);
                 }
             }
             Mode::MissedApproach => {
@@ -1388,6 +1397,7 @@ mod tests {
                 },
                 tip_lateral_mps: [0.0; 2],
                 predicted_miss_m,
+                closing_mps: 1.0,
             },
             ..inputs()
         }
@@ -1472,6 +1482,58 @@ mod tests {
         );
         go(&mut m, &near);
         assert_eq!(m.mode(), Mode::Approach);
+    }
+
+    #[test]
+    fn a_capture_closing_too_slowly_is_a_no_go_on_a_valid_frame() {
+        // At the band's edge (inclusive) the capture goes on; just below it, a valid frame
+        // turns it away; an invalid frame decides nothing.
+        let (mut m, rc, lim) = refuelling_capture();
+        let cfg = ModeConfig::default();
+        let closing = |v: f32, valid: bool| {
+            let mut inp = refuel_inputs(0.0, 0.5, 0.0);
+            inp.refuel.closing_mps = v;
+            if !valid {
+                inp.target = None;
+            }
+            inp
+        };
+        let slow = f32::from_bits(rc.capture_min_closing_mps.to_bits() - 1);
+        m.advance(
+            &closing(rc.capture_min_closing_mps, true),
+            &cfg,
+            &rc,
+            TS,
+            &lim,
+        );
+        assert_eq!(m.mode(), Mode::Terminal);
+        m.advance(&closing(slow, false), &cfg, &rc, TS, &lim);
+        assert_eq!(m.mode(), Mode::Terminal);
+        m.advance(&closing(slow, true), &cfg, &rc, TS, &lim);
+        assert_eq!(
+            (m.mode(), m.no_go()),
+            (Mode::MissedApproach, Some(NoGoReason::ClosingTooSlow))
+        );
+    }
+
+    #[test]
+    fn a_capture_that_loses_its_frames_times_out() {
+        // Frames lost in the capture decide nothing until `capture_timeout_s` has passed.
+        let (mut m, rc, lim) = refuelling_capture();
+        let cfg = ModeConfig::default();
+        let lost = ModeInputs {
+            target: None,
+            ..refuel_inputs(0.0, 0.5, 0.0)
+        };
+        for _ in 0..steps(rc.capture_timeout_s, TS) {
+            m.advance(&lost, &cfg, &rc, TS, &lim);
+            assert_eq!(m.mode(), Mode::Terminal);
+        }
+        m.advance(&lost, &cfg, &rc, TS, &lim);
+        assert_eq!(
+            (m.mode(), m.no_go()),
+            (Mode::MissedApproach, Some(NoGoReason::CaptureTimeout))
+        );
     }
 
     /// The next float above a positive `x`.
