@@ -21,20 +21,20 @@
 //! ```
 //!
 //! the drogue's velocity a first-order Gauss-Markov process whose correlation time `τ` and
-//! intensity `q` are fitted to the simulated hose's response to Dryden turbulence
-//! (`host-sim/examples/drogue_model.rs`: the velocity's autocorrelation falls to 1/e in
-//! about 1.3 s). The hose's swinging mode (period 3.9 s) would be the better physical model
-//! for the filter, but its displacement from the trail's equilibrium is not observable
-//! enough: with the few cm/s of error in the navigation's tip velocity, a filter carrying it
-//! predicted a swing of 0.24 m at 1.2 s for a drogue at rest in calm air (measured,
-//! `docs/conventions.md`). The swing enters where it needs no displacement: the
-//! feed-forward's velocity a lead ahead ([`DrogueEstimator::drogue_velocity_ahead`]) carries
-//! the estimated velocity and its rate (the drogue's acceleration, the velocity's change
-//! low-passed) along a swing of the configured period, the phase a decaying velocity cannot
-//! give; a drogue at rest has neither, and nothing is predicted. Discretised
-//! exactly at construction (`Ts`-step transition and process noise of the Gauss-Markov
-//! process). Measurement noise grows with the camera's depth (`offset_noise_*`,
-//! `depth_noise_*`).
+//! intensity `q` are fitted to the simulated hose's response to Dryden turbulence (1.3 s,
+//! fitted to an earlier hose model; today's falls to 1/e in about 0.75 s,
+//! `host-sim/examples/drogue_model.rs`, not refitted yet). The hose's swinging mode (period
+//! 3.9 s) would be the better physical model for the filter, but its displacement from the
+//! trail's equilibrium is not observable enough: with the few cm/s of error in the
+//! navigation's tip velocity, a filter carrying it predicted a swing of 0.24 m at 1.2 s for
+//! a drogue at rest in calm air (measured, `docs/conventions.md`). The swing enters where
+//! it needs no displacement: the feed-forward's velocity a lead ahead
+//! ([`DrogueEstimator::drogue_velocity_ahead`]) carries the estimated velocity and its rate
+//! (the drogue's acceleration, the velocity's change low-passed) along a swing of the
+//! configured period, the phase a decaying velocity cannot give; a drogue at rest has
+//! neither, and nothing is predicted. Discretised exactly at construction (`Ts`-step
+//! transition and process noise of the Gauss-Markov process). Measurement noise grows with
+//! the camera's depth (`offset_noise_*`, `depth_noise_*`).
 //!
 //! How hard the drogue is being driven (the air's turbulence) is not configured but measured:
 //! an exponential average of the estimated drogue velocity's square over
@@ -63,7 +63,9 @@ use crate::num::{max_to, sin_cos};
 #[serde(default, deny_unknown_fields)]
 pub struct EstimatorConfig {
     /// Correlation time of the drogue's lateral and vertical velocity, s. Default 1.3 s,
-    /// fitted to the simulated hose (`host-sim drogue-model`).
+    /// fitted to an earlier version of the simulated hose; today's hose measures 0.76 s
+    /// right and 0.72 s down (`host-sim/examples/drogue_model.rs`), not refitted yet
+    /// (`docs/conventions.md`, "Drogue estimator").
     pub drogue_time_constant_s: f32,
     /// Power spectral density of the white noise driving the drogue's lateral and vertical
     /// velocity, m²/s³ (its stationary variance is `q τ / 2`). Default 0.1: the fit's 0.047

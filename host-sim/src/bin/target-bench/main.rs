@@ -219,8 +219,8 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "level2 seed 31: level II turbulence (0.7 m/s), a no-go on the first approach, a missed approach, docks on the second",
-            preset("level2", 31, |_| {})?,
+            "level2 seed 66: level II turbulence, a no-go on the first approach, a missed approach, docks on the second",
+            preset("level2", 66, |_| {})?,
             vec![],
             "docked",
         ),
