@@ -441,6 +441,8 @@ config_rules! {
     positive refuelling.station_depth_m;
     positive refuelling.station_gain_per_s;
     positive refuelling.station_max_speed_mps;
+    non_negative refuelling.station_integral_gain_per_s2;
+    non_negative refuelling.station_max_integral_mps;
     positive refuelling.station_offset_tol_m;
     positive refuelling.station_clear_offset_m;
     holds refuelling.station_clear_offset_m

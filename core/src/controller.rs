@@ -46,7 +46,7 @@ use crate::mode::{
     RefuelInputs,
 };
 use crate::nav::{EnvelopeBits, NavError, NavSample};
-use crate::num::max_to;
+use crate::num::{clamp_sym, max_to};
 use crate::outer::{self, OuterOutput};
 use crate::predictor::LatencyPredictor;
 use crate::procedure::{self, Forward, Procedure};
@@ -348,6 +348,10 @@ pub struct Controller {
     /// Refuelling: the closing speed of the approach flown (or last flown), m/s, chosen as
     /// it starts from the air the estimator measured ([`procedure::contact_speed`]).
     contact_mps: f32,
+    /// Refuelling: the station's integral on the drogue's mean offset, `[right, down]`, m/s
+    /// (reset at engage, kept over the attempts: what it takes out, the navigation's
+    /// velocity bias, stays).
+    station_integral_mps: [f32; 2],
     counters: Counters,
 }
 
@@ -385,6 +389,7 @@ impl Controller {
             last_outer: OuterOutput::default(),
             v_cmd: VelocityRe::ZERO,
             contact_mps: cfg.refuelling.contact_speed_mps,
+            station_integral_mps: [0.0; 2],
             counters: Counters::default(),
         };
         c.set_design(d);
@@ -535,12 +540,16 @@ impl Controller {
     fn mode_velocity(&self, est: &DrogueEstimate) -> VelocityRe {
         let md = &self.cfg.modes;
         let track = |fwd| {
-            let ahead = self
-                .estimator
-                .drogue_velocity_ahead(&self.derived.estimator);
+            let feedforward = match fwd {
+                Forward::Contact | Forward::Capture => self
+                    .estimator
+                    .drogue_velocity_ahead(&self.derived.estimator),
+                Forward::Station => self.station_integral_mps,
+                Forward::Clear => [0.0; 2],
+            };
             procedure::desired_velocity(
                 est,
-                ahead,
+                feedforward,
                 fwd,
                 self.contact_mps,
                 &self.cfg.refuelling,
@@ -784,6 +793,7 @@ impl Controller {
                     if let Some(fr) = &frame {
                         self.estimator.start(fr, &self.cfg.estimator);
                     }
+                    self.station_integral_mps = [0.0; 2];
                 }
                 // Each approach closes at the speed the air it starts in asks for, kept to
                 // its end (docs/conventions.md, "The refuelling procedure").
@@ -801,6 +811,19 @@ impl Controller {
         } else {
             refuel.estimate
         };
+        if !paper && mode == Mode::PreContact {
+            let rc = &self.cfg.refuelling;
+            for (b, r) in self
+                .station_integral_mps
+                .iter_mut()
+                .zip(estimate.mean_offset_m)
+            {
+                *b = clamp_sym(
+                    *b + ts * rc.station_integral_gain_per_s2 * r,
+                    rc.station_max_integral_mps,
+                );
+            }
+        }
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
         } else if paper || matches!(mode, Mode::Breakaway | Mode::MissedApproach) {

@@ -294,6 +294,62 @@ fn the_approach_and_the_capture_close_at_the_contact_speed() {
 }
 
 #[test]
+fn the_station_integrates_a_steady_offset_and_starts_again_from_zero_at_engage() {
+    // The drogue held 0.3 m right of the tip at the station (outside the station's
+    // tolerance: never cleared), the navigation unbiased: the lateral command is the
+    // proportional term on the mean offset plus the integral, which grows at
+    // `ki × mean offset` a second, within its limit; a reset and a new engage start it at 0.
+    let mut s = Sortie::new();
+    let rc = s.ctl.config().refuelling;
+    let off = [0.3, 0.0, 3.0];
+    let mut v = Vec::new();
+    for _ in 0..1500 {
+        let out = s.step(off, 0.0);
+        assert_eq!(out.mode, Mode::PreContact);
+        v.push(out.v_des.x_right_mps);
+    }
+    // After 30 s, the mean offset settled for 20 of them: the proportional 0.15 m/s and an
+    // integral near `ki × 0.3 m × 28 s` (the 2 s average's lag) beyond it.
+    let proportional = rc.track_gain_per_s * 0.3;
+    let integral = v[1499] - proportional;
+    let want = rc.station_integral_gain_per_s2 * 0.3 * 28.0;
+    assert!(
+        (integral - want).abs() < 0.15 * want,
+        "integral {integral} m/s, about {want} expected"
+    );
+    assert!(v[1499] > v[1000] && v[1000] > v[500], "still growing");
+    // The integral's limit, reached after about 70 s (inside the sortie's 150 s).
+    for _ in 0..3_000 {
+        s.step(off, 0.0);
+    }
+    let last = s.step(off, 0.0);
+    assert_eq!(last.mode, Mode::PreContact);
+    let held = last.v_des.x_right_mps;
+    assert!(
+        (held - proportional - rc.station_max_integral_mps).abs() < 1e-3,
+        "{held}"
+    );
+    // Reset to standby, engage again: from zero.
+    s.ctl.step(&ControllerInput {
+        request: ModeRequest::Reset,
+        ..approach_input(s.seq + 1, ModeRequest::Reset, NavSample::default())
+    });
+    s.seq = 0;
+    let first = s.step(off, 0.0);
+    assert_eq!(first.mode, Mode::PreContact);
+    for _ in 0..200 {
+        s.step(off, 0.0);
+    }
+    // 202 steps engaged, the mean offset at 0.3 m from the first frame on.
+    let fresh = s.step(off, 0.0).v_des.x_right_mps;
+    let since_engage = proportional + rc.station_integral_gain_per_s2 * 0.3 * 202.0 * 0.02;
+    assert!(
+        (fresh - since_engage).abs() < 2e-3,
+        "{fresh} vs {since_engage}"
+    );
+}
+
+#[test]
 fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the_station() {
     let mut s = Sortie::to_approach();
     let rc = s.ctl.config().refuelling;

@@ -1,8 +1,9 @@
 //! The refuelling procedure's law (`ibvs_core::procedure::desired_velocity`), mode by mode,
 //! against its statement in the module doc and `docs/conventions.md`, "The refuelling
 //! procedure": lateral and vertical `v = ff v_ahead + clamp(k r, ±max_correction)` (the
-//! drogue's predicted velocity fed forward while closing, the instantaneous offset closing,
-//! the mean offset holding the station or clearing), `k` the tracking gain or, in the
+//! drogue's predicted velocity fed forward while closing, the station's integral while
+//! holding it, nothing while clearing; the instantaneous offset closing, the mean offset
+//! holding the station or clearing), `k` the tracking gain or, in the
 //! capture, `max(k, 1 / max(t_go, t_min))` with `t_go = depth / contact speed`; forward: the
 //! contact speed relative to the drogue's own forward velocity while closing, and relative to
 //! the tanker (the drogue's fore-and-aft swing left out) the station's depth hold
@@ -46,26 +47,31 @@ fn assert_velocity(got: VelocityRe, want: [f32; 3], what: &str) {
 }
 
 #[test]
-fn the_station_holds_depth_and_follows_the_mean_offset_without_feed_forward() {
+fn the_station_holds_depth_and_follows_the_mean_offset_plus_its_integral() {
     let (rc, lim) = (RefuellingConfig::default(), limits());
-    // The instantaneous offset, the predicted velocity and the drogue's forward swing must
-    // not enter: only the mean offset and the depth.
+    // The instantaneous offset, the drogue's velocity and its forward swing must not enter:
+    // only the mean offset, the station's integral (given whole, whatever the
+    // feed-forward gain) and the depth.
     let e = |depth| estimate([1.0, 1.0], [0.2, -0.4], 0.1, depth);
-    let ahead = [0.3, 0.3];
+    let integral = [0.03, 0.05];
     let c = rc.contact_speed_mps;
-    // 1 m behind the station: close at 0.4 m/s; right 0.5 * 0.2, up 0.5 * 0.4.
-    let v = desired_velocity(&e(4.0), ahead, Forward::Station, c, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, 0.4], "1 m behind");
+    let half = RefuellingConfig {
+        feedforward_gain: 0.5,
+        ..rc
+    };
+    // 1 m behind the station: close at 0.4 m/s; right 0.03 + 0.5 * 0.2, up 0.05 - 0.5 * 0.4.
+    let v = desired_velocity(&e(4.0), integral, Forward::Station, c, &half, &lim);
+    assert_velocity(v, [0.13, -0.15, 0.4], "1 m behind");
     // 1 m inside the station: open at 0.4 m/s.
-    let v = desired_velocity(&e(2.0), ahead, Forward::Station, c, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, -0.4], "1 m inside");
+    let v = desired_velocity(&e(2.0), integral, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [0.13, -0.15, -0.4], "1 m inside");
     // 7 m behind: 2.8 m/s limited to the station's 1.5 m/s.
-    let v = desired_velocity(&e(10.0), ahead, Forward::Station, c, &rc, &lim);
-    assert_velocity(v, [0.1, -0.2, 1.5], "far behind");
-    // A large mean offset is closed at the correction limit, 0.5 m/s.
+    let v = desired_velocity(&e(10.0), integral, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [0.13, -0.15, 1.5], "far behind");
+    // A large mean offset is closed at the correction limit, 0.5 m/s, beside the integral.
     let far_off = estimate([0.0, 0.0], [-3.0, 2.0], 0.0, 3.0);
-    let v = desired_velocity(&far_off, ahead, Forward::Station, c, &rc, &lim);
-    assert_velocity(v, [-0.5, 0.5, 0.0], "far off the axis, on station");
+    let v = desired_velocity(&far_off, integral, Forward::Station, c, &rc, &lim);
+    assert_velocity(v, [-0.47, 0.55, 0.0], "far off the axis, on station");
 }
 
 #[test]
@@ -148,9 +154,10 @@ fn every_axis_is_saturated_to_the_velocity_limits() {
     let e = estimate([0.0; 2], [0.0; 2], 1.5, 10.0);
     let v = desired_velocity(&e, [3.0, -3.0], Forward::Contact, 1.0, &rc, &lim);
     assert_velocity(v, [2.0, -2.0, 2.0], "contact, saturated");
-    // On station the surge is left out: the station's own 1.5 m/s.
+    // On station the surge is left out: the station's own 1.5 m/s; an integral of 3 m/s
+    // (beyond any configured limit) is saturated too.
     let v = desired_velocity(&e, [3.0, -3.0], Forward::Station, 1.0, &rc, &lim);
-    assert_velocity(v, [0.0, 0.0, 1.5], "station, its own limit");
+    assert_velocity(v, [2.0, -2.0, 1.5], "station, its own limit");
     // Clearing at a configured 3 m/s aft: limited to -2.
     let fast = RefuellingConfig {
         missed_aft_mps: 3.0,
