@@ -219,8 +219,8 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "level2 seed 66: level II turbulence, a no-go on the first approach, a missed approach, docks on the second",
-            preset("level2", 66, |_| {})?,
+            "mil-level2 seed 2: MIL-F-8785C 10^-2 turbulence, a no-go on the first approach, a missed approach, docks on the second",
+            preset("mil-level2", 2, |_| {})?,
             vec![],
             "docked",
         ),
