@@ -445,8 +445,6 @@ config_rules! {
     non_negative refuelling.station_max_integral_mps;
     positive refuelling.station_offset_tol_m;
     positive refuelling.station_clear_offset_m;
-    holds refuelling.station_clear_offset_m
-        if refuelling.station_clear_offset_m < refuelling.abort_offset_m;
     positive refuelling.station_depth_tol_m;
     positive refuelling.station_overrun_m;
     positive refuelling.station_drogue_speed_tol_mps;
@@ -458,6 +456,8 @@ config_rules! {
     positive refuelling.rough_air_drogue_speed_mps;
     positive refuelling.rough_air_contact_speed_mps;
     positive refuelling.abort_offset_m;
+    holds refuelling.station_clear_offset_m
+        if refuelling.station_clear_offset_m < refuelling.abort_offset_m;
     positive refuelling.commit_depth_m;
     positive refuelling.gate_radius_m;
     positive refuelling.late_gate_radius_m;

@@ -17,13 +17,14 @@
 //! ```
 //!
 //! The law, in every engaged mode of the procedure, acts on the estimator's belief:
-//! lateral and vertical `v = v̂_drogue(t + lead) + clamp(k r̂, ±max_correction)` (the
-//! drogue's velocity predicted a lead time ahead, which covers the inner loops' lag, plus a
-//! proportional correction of the offset `r̂` of the drogue from the probe tip, limited in
-//! speed: an image-based law, since `r̂` is the image point times depth, set back to the tip
-//! and filtered); forward: a depth-hold at the
-//! pre-contact station, a constant closing speed in the contact approach and the capture,
-//! a back-off in the missed approach.
+//! lateral and vertical `v = v̂_drogue(t + lead) + clamp(k r̂, ±max_correction)` while
+//! closing (the drogue's velocity predicted a lead time ahead along the hose's swing, which
+//! covers the inner loops' lag, plus a proportional correction of the offset `r̂` of the
+//! drogue from the probe tip, limited in speed: an image-based law, since `r̂` is the image
+//! point times depth, set back to the tip and filtered); at the station the same on the
+//! drogue's mean offset, with a slow integral of it instead of the feed-forward; forward: a
+//! depth-hold at the pre-contact station, a constant closing speed in the contact approach
+//! and the capture, a back-off in the missed approach.
 //!
 //! Invariant: the functions here are pure; the outputs are finite and inside the velocity
 //! limits for finite inputs (saturated).

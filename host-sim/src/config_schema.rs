@@ -95,12 +95,14 @@ const UNITLESS: [(&str, &str); 14] = [
     ),
 ];
 
-/// Unit suffixes, longest first (`_mps2` before `_mps`, `_per_m2` before `_m2`).
-const SUFFIXES: [(&str, &str); 13] = [
+/// Unit suffixes, longest first (`_mps2` before `_mps`, `_per_m2` before `_m2`, `_per_s2`
+/// before `_per_s`).
+const SUFFIXES: [(&str, &str); 14] = [
     ("_m2ps3", "m^2/s^3"),
     ("_mps2", "m/s^2"),
     ("_per_m2", "1/m^2"),
     ("_per_m", "1/m"),
+    ("_per_s2", "1/s^2"),
     ("_per_s", "1/s"),
     ("_radps", "rad/s"),
     ("_steps", "control periods (20 ms)"),
