@@ -99,7 +99,8 @@ pub struct RefuellingConfig {
     /// with the drogue half a swing away starts with an offset it must first catch up with:
     /// without this condition 12 of 1,000 level II approaches turned away as
     /// `OffsetTooLarge` at the first attempt, 9 of them within 0.3 s of the start. Default
-    /// 0.35 m (1,000 `level2` sorties: 957 first-attempt dockings without it, 961 at 0.35 m,
+    /// 0.35 m (measured before the swing feed-forward; 1,000 `level2` sorties: 957
+    /// first-attempt dockings without it, 961 at 0.35 m,
     /// 965 at 0.25 m; 300 `mil-level2` sorties: 243 docked without it and at 0.35 m, 230 at
     /// 0.25 m and 212 at 0.15 m, the dwell's end waiting longer for the drogue in strong air:
     /// `docs/scenarios.md`). Below `abort_offset_m`.
