@@ -628,8 +628,9 @@ impl Controller {
                 }
             })
         };
+        let closing_mps = est.closing_mps(tip_mps[2]);
         let predicted_miss_m = if matches!(self.modes.mode(), Mode::Approach | Mode::Terminal) {
-            self.predicted_miss_m(&est, tip_mps)
+            self.predicted_miss_m(&est, closing_mps, [tip_mps[0], tip_mps[1]])
         } else {
             f32::INFINITY
         };
@@ -642,7 +643,7 @@ impl Controller {
             estimate: est,
             tip_lateral_mps: [tip_mps[0], tip_mps[1]],
             predicted_miss_m,
-            closing_mps: est.closing_mps(tip_mps[2]),
+            closing_mps,
         };
         (inputs, target, frame)
     }
@@ -650,11 +651,16 @@ impl Controller {
     /// The go/no-go gate's figure: the radial offset predicted at the drogue plane (horizon
     /// the time to go at the present closing speed, at most `gate_max_horizon_s`; the tip
     /// keeping its lateral velocity, no further correction) plus `gate_sigmas` standard
-    /// deviations of the larger axis, m.
+    /// deviations of the larger axis, m; `closing` the estimated closing speed, m/s, and
+    /// `tip_lateral_mps` the tip's `[right, down]` velocity.
     #[inline(always)]
-    fn predicted_miss_m(&self, est: &DrogueEstimate, tip_mps: [f32; 3]) -> f32 {
+    fn predicted_miss_m(
+        &self,
+        est: &DrogueEstimate,
+        closing: f32,
+        tip_lateral_mps: [f32; 2],
+    ) -> f32 {
         let rc = &self.cfg.refuelling;
-        let closing = est.closing_mps(tip_mps[2]);
         let to_go = max_to(est.depth_m, 0.0);
         // Not closing (or barely): the longest horizon. One division per step.
         let h = if to_go < closing * rc.gate_max_horizon_s {
@@ -662,9 +668,9 @@ impl Controller {
         } else {
             rc.gate_max_horizon_s
         };
-        let [a, b] =
-            self.estimator
-                .predict_offset(h, [tip_mps[0], tip_mps[1]], &self.derived.estimator);
+        let [a, b] = self
+            .estimator
+            .predict_offset(h, tip_lateral_mps, &self.derived.estimator);
         let mean = libm::sqrtf(a.mean_m * a.mean_m + b.mean_m * b.mean_m);
         let var = if a.variance_m2 >= b.variance_m2 {
             a.variance_m2
