@@ -41,10 +41,16 @@ const ONSET_S: f64 = 5.0;
 const CAPTURE_RANGE_M: f64 = 0.8;
 /// Control period, s.
 const TS: f64 = 0.02;
-/// Consecutive invalid steps bridged by a hold.
-const HOLD_LIMIT: u32 = 25;
-/// Repeats of a frame's content accepted before `Frozen`.
-const FROZEN_LIMIT: u32 = 5;
+
+/// Consecutive invalid steps bridged by a hold (the default configuration's).
+fn hold_limit() -> u32 {
+    u32::from(ControllerConfig::default().modes.hold_limit_steps)
+}
+
+/// Repeats of a frame's content accepted before `Frozen` (the default configuration's).
+fn frozen_limit() -> u32 {
+    u32::from(ControllerConfig::default().measurement.frozen_frame_limit)
+}
 
 struct Flown {
     run: Run,
@@ -355,7 +361,7 @@ fn faults_and_responses() -> Res<()> {
     let base = fly(&[])?;
 
     println!("-- image dropout before the commit (at {ONSET_S} s)");
-    for n in [1, 5, 10, 20, HOLD_LIMIT, HOLD_LIMIT + 1, 30, 50, 150] {
+    for n in [1, 5, 10, 20, hold_limit(), hold_limit() + 1, 30, 50, 150] {
         let f = fly(&[SimFault::at_time(
             FaultKind::ImageDropout,
             ONSET_S,
@@ -373,7 +379,7 @@ fn faults_and_responses() -> Res<()> {
     let mut capture_lost = None;
     for (what, duration_s) in [
         ("10 steps", steps(10)),
-        ("26 steps", steps(HOLD_LIMIT + 1)),
+        ("26 steps", steps(hold_limit() + 1)),
         ("to the end", f64::INFINITY),
     ] {
         let f = fly(&[SimFault::at_range(
@@ -442,7 +448,7 @@ fn faults_and_responses() -> Res<()> {
     }
 
     println!("-- frozen measurement, stuck tracker");
-    let frames = 1 + FROZEN_LIMIT + HOLD_LIMIT;
+    let frames = 1 + frozen_limit() + hold_limit();
     for range_m in [5.0, 3.0, 2.5] {
         for (what, duration_s) in [
             (format!("{frames} frames"), steps(frames) - TS / 2.0),
@@ -487,7 +493,7 @@ fn faults_and_responses() -> Res<()> {
     );
 
     println!("-- NaN from navigation (at {ONSET_S} s)");
-    for n in [HOLD_LIMIT, HOLD_LIMIT + 1, 100] {
+    for n in [hold_limit(), hold_limit() + 1, 100] {
         let f = fly(&[SimFault::at_time(FaultKind::NavNaN, ONSET_S, steps(n))])?;
         println!(
             "{n} steps: {}; nav_non_finite {}, nav_held_steps {}, open-loop steps {}",
