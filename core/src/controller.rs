@@ -876,8 +876,16 @@ impl Controller {
             let [theta, v, alpha, q] = self
                 .predict_lon
                 .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
-            let [e, th] = self.lon.control(&[theta, v, alpha, q, x_lon[4]]);
-            let [a, r] = self.lat.control(&self.predict_lat.predict(x_lat));
+            // The actuators' deflections from the predictors' models of the commands sent
+            // (longitudinal: engine, elevator; lateral: aileron, rudder; `gains`).
+            let elevator = self.predict_lon.unmeasured()[1];
+            let [e, th] = self
+                .lon
+                .control(&[theta, v, alpha, q, x_lon[4]], &[elevator, 0.0]);
+            let [a, r] = self.lat.control(
+                &self.predict_lat.predict(x_lat),
+                self.predict_lat.unmeasured(),
+            );
             [e, th, a, r]
         };
         let (command, sat) = self.cfg.actuators.saturate(requested, trim);

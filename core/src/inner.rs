@@ -10,13 +10,15 @@
 //! Each channel computes, at step k,
 //!
 //! ```text
-//! u[k]   = u_trim - K_x x[k] - K_q q[k]            (then saturated)
-//! q[k+1] = q[k] + Ts (C x[k] - v_des[k])           (unless frozen by anti-windup)
+//! u[k]   = u_trim - K_x x[k] - K_a a[k] - K_q q[k]     (then saturated)
+//! q[k+1] = q[k] + Ts (C x[k] - v_des[k])                (unless frozen by anti-windup)
 //! ```
 //!
 //! which is exactly the augmented discrete plant the gains were synthesised for: the plant
 //! discretised by zero-order hold at Ts, the integrator as this forward sum (docs/paper.md,
-//! item 9). `C = C_cg + C_lever(p_cam)`: the CG part is generated, the lever-arm part is
+//! item 9). `a` are the surface actuators' deflections from trim, as the controller's own
+//! model of its commands has them ([`crate::predictor`]): the refuelling design carries the
+//! actuators' lag as states and feeds them back; the paper's does not (`K_a = 0`). `C = C_cg + C_lever(p_cam)`: the CG part is generated, the lever-arm part is
 //! computed from the believed camera position ([`crate::kinematics`]).
 //!
 //! Anti-windup: conditional integration. An integrator is frozen in a step when any actuator
@@ -53,6 +55,11 @@ pub const LAT_INPUTS: [&str; 2] = ["aileron_rad", "rudder_rad"];
 pub struct ChannelGains<const NX: usize, const NY: usize, const NU: usize> {
     /// State-feedback gain `K_x`, one row per input.
     pub k_state: [[f32; NX]; NU],
+    /// Gain `K_a` on the surface actuators' deflections (perturbations from trim), one row
+    /// per input, column `j` input `j`'s actuator; zero where the design does not carry
+    /// that actuator (the paper's design carries none; the throttle has none: the engine
+    /// is a design state).
+    pub k_actuator: [[f32; NU]; NU],
     /// Integral gain `K_q`, one row per input.
     pub k_integral: [[f32; NY]; NU],
     /// Camera-velocity output matrix from CG motion alone, one row per output.
@@ -150,6 +157,7 @@ impl EngineEstimate {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Channel<const NX: usize, const NY: usize, const NU: usize> {
     k_x: [[f32; NX]; NU],
+    k_a: [[f32; NU]; NU],
     k_q: [[f32; NY]; NU],
     c: [[f32; NX]; NY],
     u_trim: [f32; NU],
@@ -172,6 +180,7 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
     pub fn new(g: &ChannelGains<NX, NY, NU>, c_lever: &[[f32; NX]; NY], u_trim: [f32; NU]) -> Self {
         Self {
             k_x: g.k_state,
+            k_a: g.k_actuator,
             k_q: g.k_integral,
             c: core::array::from_fn(|r| core::array::from_fn(|c| g.c_cg[r][c] + c_lever[r][c])),
             u_trim,
@@ -208,12 +217,17 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
         self.q = SVector::zeros();
     }
 
-    /// The control law: absolute requested inputs for state `x` and the current integrators,
-    /// `u_trim - (K_x x + K_q q)`.
+    /// The control law: absolute requested inputs for state `x`, the actuators' deflections
+    /// `a` (perturbations from trim, per input) and the current integrators,
+    /// `u_trim - (K_x x + K_a a + K_q q)`. With `K_a = 0` (a design without actuator states)
+    /// the result is that of `u_trim - (K_x x + K_q q)` bit for bit: the added term is a
+    /// signed zero.
     #[inline(always)]
-    pub fn control(&self, x: &[f32; NX]) -> [f32; NU] {
+    pub fn control(&self, x: &[f32; NX], a: &[f32; NU]) -> [f32; NU] {
         let q: [f32; NY] = self.q.into();
-        core::array::from_fn(|i| self.u_trim[i] - (dot(&self.k_x[i], x) + dot(&self.k_q[i], &q)))
+        core::array::from_fn(|i| {
+            self.u_trim[i] - (dot(&self.k_x[i], x) + dot(&self.k_a[i], a) + dot(&self.k_q[i], &q))
+        })
     }
 
     /// Advances the integrators by one step given the output `y = C x` (computed once per step:
@@ -295,6 +309,7 @@ mod tests {
     fn channel() -> Channel<1, 1, 1> {
         let g = ChannelGains {
             k_state: [[2.0]],
+            k_actuator: [[0.0]],
             k_integral: [[0.5]],
             c_cg: [[1.0]],
         };
@@ -302,14 +317,32 @@ mod tests {
     }
 
     #[test]
+    fn the_actuators_deflections_are_fed_back_through_their_gain() {
+        let g = ChannelGains {
+            k_state: [[2.0]],
+            k_actuator: [[3.0]],
+            k_integral: [[0.5]],
+            c_cg: [[1.0]],
+        };
+        let ch = Channel::new(&g, &[[0.0]], [0.1]);
+        let x = v1(0.2);
+        assert!((ch.control(&x, &[0.05])[0] - (0.1 - 2.0 * 0.2 - 3.0 * 0.05)).abs() < 1e-7);
+        // Without actuator gains the deflection changes nothing, to the bit.
+        assert_eq!(
+            channel().control(&x, &[0.05])[0].to_bits(),
+            channel().control(&x, &[0.0])[0].to_bits()
+        );
+    }
+
+    #[test]
     fn law_and_integrator_follow_the_design_equations() {
         let mut ch = channel();
         let x = v1(0.2);
-        assert!((ch.control(&x)[0] - (0.1 - 2.0 * 0.2)).abs() < 1e-7);
+        assert!((ch.control(&x, &[0.0])[0] - (0.1 - 2.0 * 0.2)).abs() < 1e-7);
         ch.integrate(&ch.output(&x), &v1(1.0), &[0], 0.02, 10.0);
         assert!((ch.integrators()[0] - 0.02 * (0.2 - 1.0)).abs() < 1e-7);
         let q = ch.integrators()[0];
-        assert!((ch.control(&x)[0] - (0.1 - 2.0 * 0.2 - 0.5 * q)).abs() < 1e-7);
+        assert!((ch.control(&x, &[0.0])[0] - (0.1 - 2.0 * 0.2 - 0.5 * q)).abs() < 1e-7);
     }
 
     #[test]
@@ -332,6 +365,7 @@ mod tests {
         // update of zero.
         let g = ChannelGains {
             k_state: [[0.0], [0.0]],
+            k_actuator: [[0.0, 0.0], [0.0, 0.0]],
             k_integral: [[0.5], [0.5]],
             c_cg: [[1.0]],
         };

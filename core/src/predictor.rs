@@ -34,8 +34,9 @@
 //! commands it flies are recorded as usual.
 //!
 //! Invariants: the latency is at most [`MAX_NAV_LATENCY_STEPS`] (the configuration is
-//! validated); with latency 0 the prediction is the sample itself, bit for bit, and nothing
-//! is recorded; for finite samples and commands every value stays finite (the model is
+//! validated); with latency 0 the prediction is the sample itself, bit for bit, and no
+//! command is kept (the unmeasured states still follow the commands: the refuelling design
+//! feeds the actuators' deflections back); for finite samples and commands every value stays finite (the model is
 //! stable: its eigenvalues are the airframe's and the actuators', the heading's at 1).
 
 use crate::inner::dot;
@@ -159,18 +160,26 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
         (add(m, dm), add(mul(&mdl.phi_ee, &e), mul(&mdl.gamma_e, &u)))
     }
 
+    /// The unmeasured states now, `e[k]` (perturbations from trim): the model's engine
+    /// power and actuator deflections under the commands recorded so far. The refuelling
+    /// design feeds the actuators' back ([`crate::inner`]).
+    #[inline(always)]
+    pub fn unmeasured(&self) -> &[f32; NE] {
+        &self.e_now
+    }
+
     /// Records the command sent this step (perturbation from trim) and advances the
-    /// unmeasured states by it.
+    /// unmeasured states by it. Without latency nothing is kept for the prediction, but
+    /// the unmeasured states still advance.
     #[inline(always)]
     pub fn record(&mut self, u: [f32; NU]) {
-        if self.latency == 0 {
-            return;
-        }
-        // `head` is always below RING; the modulo says so to the bounds check too.
-        self.ring[self.head % RING] = (self.e_now, u);
-        self.head = (self.head + 1) % RING;
-        if self.recorded < RING {
-            self.recorded += 1;
+        if self.latency > 0 {
+            // `head` is always below RING; the modulo says so to the bounds check too.
+            self.ring[self.head % RING] = (self.e_now, u);
+            self.head = (self.head + 1) % RING;
+            if self.recorded < RING {
+                self.recorded += 1;
+            }
         }
         let mdl = &self.model;
         self.e_now = add(mul(&mdl.phi_ee, &self.e_now), mul(&mdl.gamma_e, &u));
@@ -237,11 +246,29 @@ mod tests {
     }
 
     #[test]
-    fn without_latency_the_sample_passes_unchanged_and_nothing_is_recorded() {
+    fn without_latency_the_sample_passes_unchanged_and_only_the_model_advances() {
         let mut p = LatencyPredictor::new(model(), 0);
         p.record([3.0]);
         assert_eq!(p.predict([0.25]), [0.25]);
+        // e' = 0.8 e + 0.2 u from trim.
+        assert_eq!(p.unmeasured(), &[0.2 * 3.0]);
+        assert_eq!(p.recorded, 0);
+        p.reset();
         assert_eq!(p, LatencyPredictor::new(model(), 0));
+    }
+
+    #[test]
+    fn the_unmeasured_states_follow_the_commands_at_any_latency() {
+        let u = |k: usize| ((k as f32) * 0.3).cos();
+        for d in 0..=MAX_NAV_LATENCY_STEPS {
+            let mut p = LatencyPredictor::new(model(), d);
+            let mut e = 0.0f32;
+            for k in 0..12 {
+                assert!((p.unmeasured()[0] - e).abs() < 1e-6, "d {d} k {k}");
+                p.record([u(k)]);
+                e = 0.8 * e + 0.2 * u(k);
+            }
+        }
     }
 
     #[test]

@@ -136,6 +136,7 @@ impl<const NX: usize, const NY: usize, const NU: usize> Blend for ChannelGains<N
     fn blend(n: [&Self; 4], w: (f32, f32)) -> Self {
         Self {
             k_state: field!(n, w, k_state),
+            k_actuator: field!(n, w, k_actuator),
             k_integral: field!(n, w, k_integral),
             c_cg: field!(n, w, c_cg),
         }

@@ -9,7 +9,7 @@
 //! power is the controller's own estimate, never late; the integrators integrate the late
 //! output; the state feedback acts on the late sample (`plain`) or on the sample predicted
 //! over the latency with the generated nominal-cg model (`predicted`). It prints, for
-//! d = 0..=3, each loop's spectral radius and its least-damped mode above 0.3 Hz
+//! d = 0..=3, each loop's spectral radius and its least-damped mode above 0.25 Hz
 //! (frequency, damping ratio).
 //!
 //! `cargo run --release -p host-sim --example delay_margin`

@@ -44,10 +44,20 @@ fn block(m: &DMatrix<f64>, rows: std::ops::Range<usize>, cols: std::ops::Range<u
 fn channel_expr(d: &ChannelDesign, indent: &str) -> String {
     let nx = d.c_cg.ncols();
     let ny = d.c_cg.nrows();
+    let na = d.actuated.iter().filter(|&&a| a).count();
+    // Column `j` of `k_actuator` is input j's actuator, zero for an input the design does
+    // not carry one for.
+    let mut slot = nx;
+    let mut k_act = nalgebra::DMatrix::zeros(d.k.nrows(), d.actuated.len());
+    for (j, _) in d.actuated.iter().enumerate().filter(|(_, a)| **a) {
+        k_act.set_column(j, &d.k.column(slot));
+        slot += 1;
+    }
     format!(
-        "ChannelGains {{\n{indent}    k_state: {kx},\n{indent}    k_integral: {kq},\n{indent}    c_cg: {c},\n{indent}}}",
+        "ChannelGains {{\n{indent}    k_state: {kx},\n{indent}    k_actuator: {ka},\n{indent}    k_integral: {kq},\n{indent}    c_cg: {c},\n{indent}}}",
         kx = matrix(&d.k, 0..nx),
-        kq = matrix(&d.k, nx..nx + ny),
+        ka = matrix(&k_act, 0..d.actuated.len()),
+        kq = matrix(&d.k, nx + na..nx + na + ny),
         c = matrix(&d.c_cg, 0..nx),
     )
 }
@@ -244,8 +254,18 @@ pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String 
     let _ = write!(
         out,
         "\n/// The refuelling procedure's design, on the airframe at cg {} (the paper's design: {}), \
-         weights (diagonal): lon Q {:?}, R {:?}; lat Q {:?}, R {:?}.\n",
-        refuel.xcg, s.xcg, rw.lon_q, rw.lon_r, rw.lat_q, rw.lat_r
+         weights (diagonal): lon Q {:?}, R {:?}; lat Q {:?}, R {:?}{}.\n",
+        refuel.xcg,
+        s.xcg,
+        rw.lon_q,
+        rw.lon_r,
+        rw.lat_q,
+        rw.lat_r,
+        if rw.actuator_states {
+            "; the surface actuators carried as states (unweighted)"
+        } else {
+            ""
+        }
     );
     out.push_str(&channel(
         "REFUEL_LON",

@@ -27,7 +27,7 @@ pub struct LatencyLoop<'a> {
     pub model: &'a PredictorModel,
     /// The true tracked outputs on the design states.
     pub c: &'a DMatrix<f64>,
-    /// The design's gain on `[x; integrators]`.
+    /// The design's gain on `[x; actuators it carries; integrators]`.
     pub k: &'a DMatrix<f64>,
     /// Design states (`model.measured` of them measured, the rest the model's).
     pub n: usize,
@@ -86,7 +86,13 @@ impl LatencyLoop<'_> {
         };
         let (x_late, x_now) = (design(&m_late), design(&m_now));
         let q = s.rows(oq, ny).into_owned();
-        let u = -(self.k.view((0, 0), (nu, n)) * &x_now) - self.k.view((0, n), (nu, ny)) * &q;
+        // A design that carries the actuators feeds back the model's deflections, which
+        // follow the design states' model-only part (`e = [engine; actuators]`).
+        let na = self.k.ncols() - n - ny;
+        let act = e_now.rows(ne - na, na);
+        let u = -(self.k.view((0, 0), (nu, n)) * &x_now)
+            - self.k.view((0, n), (nu, na)) * act
+            - self.k.view((0, n + na), (nu, ny)) * &q;
         let mut o = DVector::zeros(s.len());
         o.rows_mut(0, np)
             .copy_from(&(&self.pd * &p + &self.pb * &u));
@@ -127,7 +133,8 @@ impl LatencyLoop<'_> {
     }
 }
 
-/// The least-damped mode above 0.3 Hz: (frequency Hz, damping ratio).
+/// The least-damped mode above 0.25 Hz (the slow modes of heading, speed and the
+/// integrators below): (frequency Hz, damping ratio).
 pub fn least_damped(m: &DMatrix<f64>) -> Option<(f64, f64)> {
     m.complex_eigenvalues()
         .iter()
@@ -136,7 +143,7 @@ pub fn least_damped(m: &DMatrix<f64>) -> Option<(f64, f64)> {
             let s = l.ln() / TS_S;
             (s.norm() / TAU, -s.re / s.norm())
         })
-        .filter(|&(f, _)| f > 0.3)
+        .filter(|&(f, _)| f > 0.25)
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
@@ -189,9 +196,10 @@ mod tests {
     /// The refuelling design as the core flies it (gains designed at the aft cg, the
     /// predictor's model the nominal cg's) flying the airframe at cg 0.30, 0.35 and 0.40:
     /// with the prediction every channel keeps within 0.04 of its undelayed damping up to
-    /// three periods of latency (worst 0.035 below, cg 0.30, longitudinal, three periods);
-    /// fed back late, three periods leave the longitudinal channel below 0.05 (-0.009 at cg
-    /// 0.40).
+    /// three periods of latency (worst 0.035 below, cg 0.40, longitudinal, three periods).
+    /// Fed back late, three periods now leave the longitudinal channel damped above 0.2
+    /// (0.245 at cg 0.40): the design carries the actuators' lag, and the lightly damped
+    /// actuator mode that late feedback drove unstable before (-0.009 at cg 0.40) is gone.
     #[test]
     fn the_prediction_keeps_the_design_damping_over_three_periods_of_latency() {
         let w = DesignWeights::refuelling();
@@ -231,7 +239,7 @@ mod tests {
                 }
                 if !lateral {
                     let z = damping(3, false);
-                    assert!(z < 0.05, "cg {xcg}: late feedback damping {z:.3}");
+                    assert!(z > 0.2, "cg {xcg}: late feedback damping {z:.3}");
                 }
             }
         }
