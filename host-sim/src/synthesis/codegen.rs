@@ -47,11 +47,10 @@ fn channel_expr(d: &ChannelDesign, indent: &str) -> String {
     let na = d.actuated.iter().filter(|&&a| a).count();
     // Column `j` of `k_actuator` is input j's actuator, zero for an input the design does
     // not carry one for.
-    let mut slot = nx;
     let mut k_act = nalgebra::DMatrix::zeros(d.k.nrows(), d.actuated.len());
-    for (j, _) in d.actuated.iter().enumerate().filter(|(_, a)| **a) {
+    let carried = (0..d.actuated.len()).filter(|&j| d.actuated[j]);
+    for (slot, j) in (nx..).zip(carried) {
         k_act.set_column(j, &d.k.column(slot));
-        slot += 1;
     }
     format!(
         "ChannelGains {{\n{indent}    k_state: {kx},\n{indent}    k_actuator: {ka},\n{indent}    k_integral: {kq},\n{indent}    c_cg: {c},\n{indent}}}",
