@@ -12,19 +12,25 @@ use ibvs_core::schedule::{FlightCondition, design_at};
 use nalgebra::DMatrix;
 
 /// The largest closed-loop spectral radius accepted: the single-point design's own is
-/// 0.9931 (refuelling lateral channel); a lattice over the envelope measured at most 0.9936
+/// 0.9934 (refuelling lateral channel); a lattice over the envelope measured at most 0.9942
 /// with the interpolated gains.
 const MAX_RADIUS: f64 = 0.995;
 
-/// `[K_x | K_q]` of the core's gains, in the design's `u = -K [x; q]` form.
+/// `[K_x | K_a | K_q]` of the core's gains, in the design's `u = -K [x; a; q]` form: `K_a`
+/// has a column for each input whose actuator the design carries (`actuated`), in order.
 fn gain_matrix<const NX: usize, const NY: usize, const NU: usize>(
     g: &ChannelGains<NX, NY, NU>,
+    actuated: &[bool],
 ) -> DMatrix<f64> {
-    DMatrix::from_fn(NU, NX + NY, |r, c| {
+    let carried: Vec<usize> = (0..NU).filter(|&j| actuated[j]).collect();
+    let na = carried.len();
+    DMatrix::from_fn(NU, NX + na + NY, |r, c| {
         f64::from(if c < NX {
             g.k_state[r][c]
+        } else if c < NX + na {
+            g.k_actuator[r][carried[c - NX]]
         } else {
-            g.k_integral[r][c - NX]
+            g.k_integral[r][c - NX - na]
         })
     })
 }
@@ -77,17 +83,25 @@ fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995
         })
         .expect("inside the envelope");
         for (name, design, k) in [
-            ("paper lon", &truth.paper.lon, gain_matrix(&d.lon)),
-            ("paper lat", &truth.paper.lat, gain_matrix(&d.lat)),
+            (
+                "paper lon",
+                &truth.paper.lon,
+                gain_matrix(&d.lon, &truth.paper.lon.actuated),
+            ),
+            (
+                "paper lat",
+                &truth.paper.lat,
+                gain_matrix(&d.lat, &truth.paper.lat.actuated),
+            ),
             (
                 "refuelling lon",
                 &truth.refuel.lon,
-                gain_matrix(&d.refuel_lon),
+                gain_matrix(&d.refuel_lon, &truth.refuel.lon.actuated),
             ),
             (
                 "refuelling lat",
                 &truth.refuel.lat,
-                gain_matrix(&d.refuel_lat),
+                gain_matrix(&d.refuel_lat, &truth.refuel.lat.actuated),
             ),
         ] {
             let r = radius(design, &k);
