@@ -36,8 +36,9 @@
 //! Invariants: the latency is at most [`MAX_NAV_LATENCY_STEPS`] (the configuration is
 //! validated); with latency 0 the prediction is the sample itself, bit for bit, and no
 //! command is kept (the unmeasured states still follow the commands: the refuelling design
-//! feeds the actuators' deflections back); for finite samples and commands every value stays finite (the model is
-//! stable: its eigenvalues are the airframe's and the actuators', the heading's at 1).
+//! feeds the actuators' deflections back); for finite samples and commands every value
+//! stays finite (the model is stable: its eigenvalues are the airframe's and the
+//! actuators', the heading's at 1).
 
 use crate::inner::dot;
 
