@@ -444,6 +444,7 @@ config_rules! {
     non_negative refuelling.station_integral_gain_per_s2;
     non_negative refuelling.station_max_integral_mps;
     positive refuelling.station_offset_tol_m;
+    positive refuelling.rough_air_station_offset_tol_m;
     positive refuelling.station_clear_offset_m;
     positive refuelling.station_depth_tol_m;
     positive refuelling.station_overrun_m;

@@ -486,6 +486,16 @@ impl Controller {
         &self.counters
     }
 
+    /// The drogue's RMS lateral speed as the estimator measures it, m/s: above
+    /// `refuelling.rough_air_drogue_speed_mps` the air is rough (the approach's closing
+    /// speed and the station's offset tolerance). It starts at the configured drogue PSD's
+    /// level when the procedure engages (0.25 m/s with the defaults, rough) and settles to
+    /// the air's own over `estimator.activity_time_constant_s`; it keeps its last value
+    /// after a reset until the next engage.
+    pub fn drogue_speed_rms_mps(&self) -> f32 {
+        self.estimator.drogue_speed_rms_mps()
+    }
+
     /// Integrator states `[lon down, lon forward, lat right]`, m.
     pub fn integrators_m(&self) -> [f32; 3] {
         let (lo, la) = (self.lon.integrators(), self.lat.integrators());
@@ -642,6 +652,7 @@ impl Controller {
         let inputs = RefuelInputs {
             estimate: est,
             tip_lateral_mps: [tip_mps[0], tip_mps[1]],
+            drogue_speed_rms_mps: self.estimator.drogue_speed_rms_mps(),
             predicted_miss_m,
             closing_mps,
         };

@@ -268,6 +268,11 @@ pub struct RefuelInputs {
     /// The probe tip's lateral velocity relative to the tanker, `[right, down]`, from
     /// navigation, m/s.
     pub tip_lateral_mps: [f32; 2],
+    /// The drogue's RMS lateral speed as the estimator measures it
+    /// ([`crate::estimator::DrogueEstimator::drogue_speed_rms_mps`]): above
+    /// `rough_air_drogue_speed_mps` the station is judged with the rough-air offset
+    /// tolerance, m/s.
+    pub drogue_speed_rms_mps: f32,
     /// The gate's predicted radial miss at the drogue plane plus `gate_sigmas` standard
     /// deviations, m (computed in approach and terminal only).
     pub predicted_miss_m: f32,
@@ -327,6 +332,8 @@ pub struct RefuelLimits {
     reacquire_steps: u32,
     sortie_steps: u32,
     station_offset_sq: f32,
+    rough_station_offset_sq: f32,
+    rough_air_drogue_speed_mps: f32,
     station_clear_offset_sq: f32,
     station_drogue_speed_sq: f32,
     station_relative_speed_sq: f32,
@@ -351,6 +358,8 @@ impl RefuelLimits {
             reacquire_steps: steps(cfg.reacquire_limit_s, ts_s),
             sortie_steps: steps(cfg.sortie_budget_s, ts_s),
             station_offset_sq: sq(cfg.station_offset_tol_m),
+            rough_station_offset_sq: sq(cfg.rough_air_station_offset_tol_m),
+            rough_air_drogue_speed_mps: cfg.rough_air_drogue_speed_mps,
             station_clear_offset_sq: sq(cfg.station_clear_offset_m),
             station_drogue_speed_sq: sq(cfg.station_drogue_speed_tol_mps),
             station_relative_speed_sq: sq(cfg.station_relative_speed_tol_mps),
@@ -775,7 +784,13 @@ impl ModeMachine {
                     // Judged on valid frames only: a lost frame (held) neither counts toward
                     // the dwell nor restarts it (at 50 % frame loss a dwell that restarted on
                     // every lost frame was never reached).
-                    let stable = sq(e.mean_offset_m) <= rl.station_offset_sq
+                    let offset_sq =
+                        if inp.refuel.drogue_speed_rms_mps > rl.rough_air_drogue_speed_mps {
+                            rl.rough_station_offset_sq
+                        } else {
+                            rl.station_offset_sq
+                        };
+                    let stable = sq(e.mean_offset_m) <= offset_sq
                         && libm::fabsf(e.depth_m - rc.station_depth_m) <= rc.station_depth_tol_m
                         && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
                             <= rl.station_drogue_speed_sq
@@ -1396,6 +1411,7 @@ mod tests {
                     depth_m,
                 },
                 tip_lateral_mps: [0.0; 2],
+                drogue_speed_rms_mps: 0.0,
                 predicted_miss_m,
                 closing_mps: 1.0,
             },
@@ -1482,6 +1498,46 @@ mod tests {
         );
         go(&mut m, &near);
         assert_eq!(m.mode(), Mode::Approach);
+    }
+
+    #[test]
+    fn rough_air_judges_the_station_with_its_own_offset_tolerance() {
+        // The drogue's mean position between the two tolerances: in calm air (its RMS
+        // speed at the rough-air threshold, inclusive) the dwell never completes; above
+        // the threshold it does, and the approach starts. Beyond the rough-air tolerance
+        // it does not either way.
+        let (cfg, rc) = (ModeConfig::default(), RefuellingConfig::default());
+        assert!(rc.station_offset_tol_m < rc.rough_air_station_offset_tol_m);
+        let lim = ModeLimits::for_procedure(&cfg, &vel(), Procedure::Refuelling, &rc, TS);
+        let fly = |mean_m: f32, rms_mps: f32| {
+            let mut m = ModeMachine::default();
+            let mut inp = refuel_inputs(0.0, rc.station_depth_m, f32::INFINITY);
+            inp.refuel.estimate.mean_offset_m = [0.0, mean_m];
+            inp.refuel.drogue_speed_rms_mps = rms_mps;
+            let engage = ModeInputs {
+                request: ModeRequest::Engage,
+                ..inp
+            };
+            m.advance(&engage, &cfg, &rc, TS, &lim);
+            for _ in 0..=2 * steps(rc.station_dwell_s, TS) {
+                m.advance(&inp, &cfg, &rc, TS, &lim);
+            }
+            m.mode()
+        };
+        let between = above(rc.station_offset_tol_m);
+        let calm = rc.rough_air_drogue_speed_mps;
+        let rough = above(calm);
+        assert_eq!(fly(rc.station_offset_tol_m, calm), Mode::Approach);
+        assert_eq!(fly(between, calm), Mode::PreContact);
+        assert_eq!(fly(between, rough), Mode::Approach);
+        assert_eq!(
+            fly(rc.rough_air_station_offset_tol_m, rough),
+            Mode::Approach
+        );
+        assert_eq!(
+            fly(above(rc.rough_air_station_offset_tol_m), rough),
+            Mode::PreContact
+        );
     }
 
     #[test]

@@ -83,6 +83,18 @@ pub struct RefuellingConfig {
     /// averaged, [`crate::estimator::DrogueEstimate::mean_offset_m`]) from the probe tip at
     /// most this, m.
     pub station_offset_tol_m: f32,
+    /// Stable in rough air (the drogue's measured RMS speed above
+    /// `rough_air_drogue_speed_mps`, judged on every frame at the station): the
+    /// [`Self::station_offset_tol_m`] there, m. Default 0.30 m: in MIL-F-8785C's 10⁻² air
+    /// the receiver and the drogue's mean position wander more than 0.15 m, the dwell was
+    /// seldom met and sorties timed out at the station (1,000 `mil-level2` sorties:
+    /// 92.9 % docked, `SortieTimeout` 31, at 0.15 m; 94.5 % at 0.20 m, 94.7 % at 0.25 m,
+    /// 95.4 % and `SortieTimeout` 3 at 0.30 m; over 10,000 sorties 91.74 % → 94.76 %,
+    /// `SortieTimeout` 412 → 26). The go/no-go gates, not the station, keep the approach
+    /// safe: none of those sorties ended unsafe. Calm and level II air keep the tighter
+    /// tolerance (the same 0.30 m everywhere: `level2` 994 of 1,000 docked at the first
+    /// attempt against 996; `docs/scenarios.md`).
+    pub rough_air_station_offset_tol_m: f32,
     /// Stable: depth within this of the station depth, m.
     pub station_depth_tol_m: f32,
     /// Stable: the drogue's estimated speed (right and down, radial) at most this, m/s.
@@ -236,6 +248,7 @@ impl Default for RefuellingConfig {
             station_integral_gain_per_s2: 0.01,
             station_max_integral_mps: 0.2,
             station_offset_tol_m: 0.15,
+            rough_air_station_offset_tol_m: 0.30,
             station_depth_tol_m: 0.3,
             station_drogue_speed_tol_mps: 0.5,
             station_relative_speed_tol_mps: 0.3,

@@ -355,6 +355,7 @@ impl ModeModel {
         input: &ControllerInput,
         out: &ControllerOutput,
         cfg: &ControllerConfig,
+        drogue_rms_mps: f32,
     ) -> Result<(), String> {
         // The navigation bookkeeping both tables read (the last valid sample, the run of
         // invalid ones).
@@ -378,7 +379,7 @@ impl ModeModel {
         };
         match cfg.procedure {
             Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg))?,
-            Procedure::Refuelling => self.step_refuelling(input, out, cfg)?,
+            Procedure::Refuelling => self.step_refuelling(input, out, cfg, drogue_rms_mps)?,
         }
         // The flight loop's follow-up after the step: the next step flies this design.
         if let Some(d) = next_design {
@@ -501,6 +502,7 @@ impl ModeModel {
         input: &ControllerInput,
         out: &ControllerOutput,
         cfg: &ControllerConfig,
+        drogue_rms_mps: f32,
     ) -> Result<(), String> {
         let (md, rc) = (&cfg.modes, &cfg.refuelling);
         let steps = |t: f32| (t / Controller::PERIOD_S).round() as u32;
@@ -583,7 +585,14 @@ impl ModeModel {
                 }
                 Mode::PreContact => {
                     let sq_tol = |v: f32| v * v;
-                    let stable = sq(e.mean_offset_m) <= sq_tol(rc.station_offset_tol_m)
+                    // Rough air (the drogue's measured RMS speed above the threshold) has
+                    // its own offset tolerance.
+                    let offset_tol = if drogue_rms_mps > rc.rough_air_drogue_speed_mps {
+                        rc.rough_air_station_offset_tol_m
+                    } else {
+                        rc.station_offset_tol_m
+                    };
+                    let stable = sq(e.mean_offset_m) <= sq_tol(offset_tol)
                         && at_station
                         && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
                             <= sq_tol(rc.station_drogue_speed_tol_mps)
@@ -702,6 +711,7 @@ fn check_output(
     k: usize,
     input: &ControllerInput,
     out: &ControllerOutput,
+    drogue_rms_mps: f32,
 ) -> Result<(), TestCaseError> {
     let act = cfg.actuators;
     for (i, v) in out.command.as_array().into_iter().enumerate() {
@@ -717,7 +727,7 @@ fn check_output(
     prop_assert!(!out.status.contains(StatusFlags::NON_FINITE_COMMAND));
     prop_assert!(out.v_des.is_finite());
     model
-        .step(input, out, cfg)
+        .step(input, out, cfg, drogue_rms_mps)
         .map_err(|e| TestCaseError::fail(format!("step {k}: {e}; input {input:?}")))
 }
 
@@ -726,7 +736,7 @@ fn check_sequence(cfg: ControllerConfig, inputs: &[ControllerInput]) -> Result<(
     let mut model = ModeModel::default();
     for (k, input) in inputs.iter().enumerate() {
         let out = ctl.step(input);
-        check_output(&cfg, &mut model, k, input, &out)?;
+        check_output(&cfg, &mut model, k, input, &out, ctl.drogue_speed_rms_mps())?;
         ctl.follow_schedule();
     }
     Ok(())
@@ -792,7 +802,14 @@ fn check_wire(cfg: ControllerConfig, bytes: &[u8]) -> Result<(), TestCaseError> 
         };
         if let Some(u) = uplink {
             let out = ctl.step(&u.input);
-            check_output(&cfg, &mut model, k, &u.input, &out)?;
+            check_output(
+                &cfg,
+                &mut model,
+                k,
+                &u.input,
+                &out,
+                ctl.drogue_speed_rms_mps(),
+            )?;
             ctl.follow_schedule();
             k += 1;
         }

@@ -26,7 +26,7 @@ use stm32f4xx_hal::pac::{self, USART1, interrupt};
 
 use crate::serial::{QueueFull, SerialQueues, UsartRegisters, UsartStatus};
 
-/// Receive queue capacity, bytes: more than a configuration write (443 bytes, the largest
+/// Receive queue capacity, bytes: more than a configuration write (447 bytes, the largest
 /// frame the peer sends) and five measurement frames; 5.5 ms of back-to-back bytes at
 /// 921,600 baud; the main loop drains it at every frame's end and whenever it is half full.
 pub const RX_QUEUE_LEN: usize = 512;
