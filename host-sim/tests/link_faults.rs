@@ -246,8 +246,8 @@ fn approach_input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
     }
 }
 
-/// Free-running (the flight schedule): frames at 50 Hz of wall-clock time, then silence,
-/// then frames again. The firmware keeps sending a command frame every period; after the
+/// Free-running (the flight schedule): a frame a period of the firmware's clock, then
+/// silence, then frames again. The firmware keeps sending a command frame every period; after the
 /// link timeout it marks the link stale (navigation invalid), and after the core's hold
 /// limit it breaks away (`MeasurementLost`) open loop: trim surfaces, throttle cut.
 #[test]
@@ -265,10 +265,14 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
     );
     let mut frames: Vec<Downlink> = Vec::new();
     let mut seq = 0u32;
-    let period = Duration::from_millis(20);
-    let mut send_for = |link: &mut PilLink, frames: &mut Vec<Downlink>, d: Duration| {
-        let end = Instant::now() + d;
-        while Instant::now() < end {
+    // The test follows the firmware's own clock, not the host's: a measurement frame goes
+    // up for each command frame that comes down (one per period of emulated time), and a
+    // phase lasts a number of periods. A loaded host slows the emulation, not the test's
+    // verdict; the wall-clock cap only ends a phase whose frames stopped coming.
+    let cap = Duration::from_secs(30);
+    let mut send_periods = |link: &mut PilLink, frames: &mut Vec<Downlink>, periods: usize| {
+        let (goal, end) = (frames.len() + periods, Instant::now() + cap);
+        while frames.len() < goal && Instant::now() < end {
             seq += 1;
             let request = if seq == 1 {
                 ModeRequest::Engage
@@ -280,13 +284,14 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
                 input: approach_input(seq, request),
             })
             .expect("send");
-            frames.extend(link.drain(period).expect("receive"));
+            frames.extend(link.recv(Duration::from_secs(1)).expect("receive"));
         }
     };
 
-    // 1. One second of frames: engaged (the refuelling procedure: at the pre-contact
-    //    station), link fresh.
-    send_for(&mut link, &mut frames, Duration::from_secs(1));
+    // 1. One second of frames (50 periods): engaged (the refuelling procedure: at the
+    //    pre-contact station), link fresh.
+    send_periods(&mut link, &mut frames, 50);
+    assert!(frames.len() >= 50, "only {} command frames", frames.len());
     let a = *frames.last().expect("command frames");
     assert_eq!(a.output.mode, Mode::PreContact, "{a:?}");
     assert!(!a.link_status.contains(LinkStatus::STALE));
@@ -298,13 +303,16 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
 
     // 2. Silence for 1.5 s (75 periods): command frames keep coming; stale after 100 ms;
     //    breakaway after the core's 0.5 s hold; open loop since the navigation is invalid.
-    frames.extend(link.drain(Duration::from_millis(1500)).expect("receive"));
+    let end = Instant::now() + cap;
+    while frames.len() < engaged_at + 75 && Instant::now() < end {
+        frames.extend(link.recv(Duration::from_secs(1)).expect("receive"));
+    }
     let silent = &frames[engaged_at..];
-    eprintln!(
-        "free-running: {} command frames in 1.5 s of silence (75 at 50 Hz of emulated time)",
+    assert!(
+        silent.len() >= 75,
+        "only {} command frames in {cap:?} of silence",
         silent.len()
     );
-    assert!(silent.len() >= 40, "only {} frames in 1.5 s", silent.len());
     let b = *frames.last().expect("frames");
     assert!(
         b.link_status
@@ -331,7 +339,7 @@ fn free_running_breaks_away_when_the_link_is_lost_and_reports_it() {
     assert!(t.counters.nav_non_finite >= t.link.stale_steps);
 
     // 3. The link comes back: fresh again, still in the latched breakaway.
-    send_for(&mut link, &mut frames, Duration::from_millis(300));
+    send_periods(&mut link, &mut frames, 15);
     let c = *frames.last().expect("frames");
     assert!(!c.link_status.contains(LinkStatus::STALE), "{c:?}");
     let t = link
