@@ -70,7 +70,7 @@ use crate::estimator::DrogueEstimate;
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::num::{HypotLimit, clamp_sym, max_to, min_to};
 use crate::outer::VelocityLimits;
-use crate::procedure::{Procedure, RefuellingConfig};
+use crate::procedure::{self, Procedure, RefuellingConfig};
 
 /// Controller mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -333,7 +333,6 @@ pub struct RefuelLimits {
     sortie_steps: u32,
     station_offset_sq: f32,
     rough_station_offset_sq: f32,
-    rough_air_drogue_speed_mps: f32,
     station_clear_offset_sq: f32,
     station_drogue_speed_sq: f32,
     station_relative_speed_sq: f32,
@@ -359,7 +358,6 @@ impl RefuelLimits {
             sortie_steps: steps(cfg.sortie_budget_s, ts_s),
             station_offset_sq: sq(cfg.station_offset_tol_m),
             rough_station_offset_sq: sq(cfg.rough_air_station_offset_tol_m),
-            rough_air_drogue_speed_mps: cfg.rough_air_drogue_speed_mps,
             station_clear_offset_sq: sq(cfg.station_clear_offset_m),
             station_drogue_speed_sq: sq(cfg.station_drogue_speed_tol_mps),
             station_relative_speed_sq: sq(cfg.station_relative_speed_tol_mps),
@@ -784,12 +782,11 @@ impl ModeMachine {
                     // Judged on valid frames only: a lost frame (held) neither counts toward
                     // the dwell nor restarts it (at 50 % frame loss a dwell that restarted on
                     // every lost frame was never reached).
-                    let offset_sq =
-                        if inp.refuel.drogue_speed_rms_mps > rl.rough_air_drogue_speed_mps {
-                            rl.rough_station_offset_sq
-                        } else {
-                            rl.station_offset_sq
-                        };
+                    let offset_sq = if procedure::rough_air(inp.refuel.drogue_speed_rms_mps, rc) {
+                        rl.rough_station_offset_sq
+                    } else {
+                        rl.station_offset_sq
+                    };
                     let stable = sq(e.mean_offset_m) <= offset_sq
                         && libm::fabsf(e.depth_m - rc.station_depth_m) <= rc.station_depth_tol_m
                         && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])

@@ -286,11 +286,20 @@ impl Default for RefuellingConfig {
     }
 }
 
+/// The air is rough: the drogue's measured RMS lateral speed `drogue_rms_mps`
+/// ([`crate::estimator::DrogueEstimator::drogue_speed_rms_mps`]) is above
+/// `rough_air_drogue_speed_mps`. It picks the approach's closing speed
+/// ([`contact_speed`]) and the station's offset tolerance (`crate::mode`).
+#[inline(always)]
+pub fn rough_air(drogue_rms_mps: f32, cfg: &RefuellingConfig) -> bool {
+    drogue_rms_mps > cfg.rough_air_drogue_speed_mps
+}
+
 /// The closing speed of an approach that starts with the drogue's measured RMS lateral
-/// speed `drogue_rms_mps` ([`crate::estimator::DrogueEstimator::drogue_speed_rms_mps`]): the
-/// rough-air variant above `rough_air_drogue_speed_mps`, else `contact_speed_mps`, m/s.
+/// speed `drogue_rms_mps`: the rough-air variant in [`rough_air`], else
+/// `contact_speed_mps`, m/s.
 pub fn contact_speed(drogue_rms_mps: f32, cfg: &RefuellingConfig) -> f32 {
-    if drogue_rms_mps > cfg.rough_air_drogue_speed_mps {
+    if rough_air(drogue_rms_mps, cfg) {
         cfg.rough_air_contact_speed_mps
     } else {
         cfg.contact_speed_mps
