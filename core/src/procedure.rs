@@ -230,8 +230,8 @@ pub struct RefuellingConfig {
     pub missed_accel_mps2: f32,
     /// Missed approach: how long the measurement may be invalid (the drogue out of view
     /// while clearing), s; longer is a breakaway (`MeasurementLost`). Default 5 s: a missed
-    /// approach that passes the drogue plane loses the drogue from the set-back camera while
-    /// it backs off and returns behind it, for up to 3.48 s in the sorties measured
+    /// approach that passes the drogue plane loses the drogue from view while it backs off
+    /// and returns behind it, for up to 3.48 s in the sorties measured
     /// (MIL-F-8785C 10⁻² air); with the earlier 3 s, 1.2 % of those sorties broke away
     /// there (`MeasurementLost`; 0.04 % with 5 s). The receiver flies the estimate back
     /// towards the station meanwhile, and no approach starts without valid frames
