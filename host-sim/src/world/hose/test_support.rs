@@ -12,8 +12,10 @@ use super::{HoseDrogue, HoseParams};
 
 /// Tanker (= calm-air) speed, m/s (docs/models.md, "Flight condition and frames").
 pub(super) const V_MPS: f64 = 120.0;
-/// The simulator's physics step, s.
+/// The `paper-*` presets' physics step, s.
 pub(super) const DT_S: f64 = 0.01;
+/// The refuelling presets' physics step, s.
+pub(super) const PRESET_STEP_S: f64 = 0.02;
 /// Nominal drogue position of the authors' simulation, tanker frame, m
 /// (docs/models.md, "Flight condition and frames").
 pub(super) const NOMINAL_M: [f64; 3] = [-14.35, 0.0, 5.12];
