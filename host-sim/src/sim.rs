@@ -32,7 +32,7 @@ use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
 use crate::world::led_camera::{CameraError, LedCamera, LedCameraParams};
 use crate::world::nav::{InsErrors, InsNav, Navigation, PerfectNav};
 use crate::world::turbulence::{
-    DrydenParams, GustField, TurbulenceError, mil_f_8785c_scale_lengths_m,
+    DrydenParams, GustField, TurbulenceError, mil_f_8785c_scale_lengths_m, samples_per_step,
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
@@ -415,7 +415,13 @@ pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<
                 length_m,
                 airspeed_mps: s.tanker.speed_mps,
             };
-            GustField::new(params, dt_s, s.seed ^ TURBULENCE_SEED_SALT)
+            // Sampled at the physics step or finer (`samples_per_step`): the same air at
+            // 0.02 s as at 0.01 s, so that the physics step does not change the weather.
+            GustField::new(
+                params,
+                dt_s / f64::from(samples_per_step(dt_s)),
+                s.seed ^ TURBULENCE_SEED_SALT,
+            )
         })
         .transpose()?;
     let drogue = match s.hose {

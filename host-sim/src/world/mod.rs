@@ -29,7 +29,7 @@ use camera::PinholeCamera;
 use drogue::FixedDrogue;
 use hose::HoseDrogue;
 use led_camera::{CameraPose, LedCamera};
-use turbulence::GustField;
+use turbulence::{GustField, samples_per_step};
 use wake::TankerWake;
 
 /// The tanker: straight and level northward flight.
@@ -199,11 +199,14 @@ impl World {
     }
 
     /// Advances the air and the hose by `dt_s` (the receiver at `x` for the bow wave), ending
-    /// at time `t_s + dt_s`.
+    /// at time `t_s + dt_s`: the gusts by [`samples_per_step`] samples (their field was built
+    /// at that fraction of the step), then the hose in the air at the step's end.
     pub fn step(&mut self, dt_s: f64, x: &ReceiverState, t_s: f64) {
         let force = self.bow_wave_force_n(x, t_s);
         if let Some(g) = self.gusts.as_mut() {
-            g.advance();
+            for _ in 0..samples_per_step(dt_s) {
+                g.advance();
+            }
         }
         if let Drogue::Hose(h) = &mut self.drogue {
             let (gusts, wake, free_stream) = (

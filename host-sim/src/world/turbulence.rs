@@ -52,6 +52,25 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+/// Longest step between the gust field's samples, s: a physics step longer than this takes
+/// several samples ([`samples_per_step`]). With it the refuelling presets' 0.02 s step flies
+/// exactly the air of the `paper-*` presets' 0.01 s step for the same seed, so that a change
+/// of step is not a change of weather (and runs at the two steps compare one by one).
+pub const MAX_SAMPLE_STEP_S: f64 = 0.01;
+
+/// Gust samples per physics step of `step_s` seconds: `ceil(step_s / MAX_SAMPLE_STEP_S)`, at
+/// least 1 (2 at 0.02 s, 1 at 0.01 s and below). The field is built with the step divided by
+/// this, and advanced this many times per physics step.
+pub fn samples_per_step(step_s: f64) -> u32 {
+    // The tolerance keeps an exact multiple (0.02 / 0.01 = 2.0) from rounding up.
+    let n = (step_s / MAX_SAMPLE_STEP_S - 1e-9).ceil();
+    if n.is_finite() && n >= 1.0 {
+        n.min(f64::from(u32::MAX)) as u32
+    } else {
+        1
+    }
+}
+
 /// Scale length above 2000 ft, all three axes: 1750 ft = 533.4 m
 /// (MIL-F-8785C; docs/models.md, "Turbulence").
 pub const HIGH_ALTITUDE_SCALE_LENGTH_M: f64 = 533.4;
@@ -554,6 +573,20 @@ mod tests {
     }
 
     use super::*;
+
+    #[test]
+    fn a_step_longer_than_the_sample_step_takes_several_samples() {
+        // The refuelling presets' 0.02 s: two samples of 0.01 s, the paper presets' step.
+        assert_eq!(samples_per_step(0.02), 2);
+        assert_eq!(0.02 / f64::from(samples_per_step(0.02)), 0.01);
+        for (step_s, n) in [(0.01, 1), (0.005, 1), (0.0125, 2), (0.03, 3), (0.1, 10)] {
+            assert_eq!(samples_per_step(step_s), n, "{step_s}");
+        }
+        for bad in [0.0, -0.02, f64::NAN] {
+            assert_eq!(samples_per_step(bad), 1, "{bad}");
+        }
+        assert_eq!(samples_per_step(f64::INFINITY), 1);
+    }
 
     #[test]
     fn scale_lengths_by_altitude() {
