@@ -271,6 +271,10 @@ pub struct ScenarioFile {
     pub seed: u64,
     /// Time budget, s.
     pub duration_s: f64,
+    /// Physics steps per control period (the receiver's and the hose's RK4 steps, the
+    /// turbulence's samples and the docking-plane checks), 1..=8: 1 (a 0.02 s step) by
+    /// default, 2 (0.01 s) in the `paper-*` presets. See `docs/models.md`, "Physics step".
+    pub plant_substeps: u32,
     /// The controller's configuration (`[controller]`: [`ControllerConfig`]'s keys, each
     /// optional over its default, the refuelling procedure).
     pub controller: ControllerSection,
@@ -309,6 +313,7 @@ impl Default for ScenarioFile {
             // that every run ends in a docking, a strike or a breakaway, never in the
             // simulator's own time limit.
             duration_s: 160.0,
+            plant_substeps: 1,
             controller: ControllerSection::default(),
             initial: InitialSection {
                 drogue_minus_probe_m: PAPER_START_M,
@@ -511,13 +516,13 @@ macro_rules! paper_dispersion {
     };
 }
 
-/// What makes a preset fly the paper's experiment as the paper does: its 70 s budget and the
-/// paper's procedure (`[controller] procedure`; more `[controller]` keys may follow). Each
+/// What makes a preset fly the paper's experiment as the paper does: its 70 s budget, the
+/// 0.01 s physics step its figures were reproduced with, and the paper's procedure (`[controller] procedure`; more `[controller]` keys may follow). Each
 /// paper preset also puts the camera at the probe tip (`[camera] placement`) and navigation
 /// perfect.
 macro_rules! paper_keys {
     () => {
-        "duration_s = 70.0\n[controller]\nprocedure = \"paper\"\n"
+        "duration_s = 70.0\nplant_substeps = 2\n[controller]\nprocedure = \"paper\"\n"
     };
 }
 
@@ -701,6 +706,13 @@ impl ScenarioFile {
     /// Checks every value against its allowed range.
     pub fn validate(&self) -> Result<(), ScenarioError> {
         range("duration_s", self.duration_s, 0.1, 3600.0, "0.1..=3600")?;
+        range(
+            "plant_substeps",
+            f64::from(self.plant_substeps),
+            1.0,
+            8.0,
+            "1..=8",
+        )?;
         for (v, key) in self.initial.drogue_minus_probe_m.iter().zip([
             "initial.drogue_minus_probe_m[0] (forward)",
             "initial.drogue_minus_probe_m[1] (right)",
@@ -1022,6 +1034,7 @@ impl ScenarioFile {
             seed: f.seed,
             start_offset_m: nalgebra::Vector3::from(f.initial.drogue_minus_probe_m),
             duration_s: f.duration_s,
+            plant_substeps: f.plant_substeps,
             hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
             camera: match c.model {
                 CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
@@ -1265,6 +1278,7 @@ mod tests {
                 "{name}"
             );
             assert_eq!(f.duration_s, 70.0, "{name}");
+            assert_eq!(f.plant_substeps, 2, "{name}");
         }
     }
 
