@@ -517,9 +517,9 @@ macro_rules! paper_dispersion {
 }
 
 /// What makes a preset fly the paper's experiment as the paper does: its 70 s budget, the
-/// 0.01 s physics step its figures were reproduced with, and the paper's procedure (`[controller] procedure`; more `[controller]` keys may follow). Each
-/// paper preset also puts the camera at the probe tip (`[camera] placement`) and navigation
-/// perfect.
+/// 0.01 s physics step its figures were reproduced with, and the paper's procedure
+/// (`[controller] procedure`; more `[controller]` keys may follow). Each paper preset also
+/// puts the camera at the probe tip (`[camera] placement`) and navigation perfect.
 macro_rules! paper_keys {
     () => {
         "duration_s = 70.0\nplant_substeps = 2\n[controller]\nprocedure = \"paper\"\n"
