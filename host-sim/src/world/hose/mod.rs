@@ -399,9 +399,11 @@ mod tests {
             let mut path = Vec::new();
             for i in 0..calls {
                 let t = i as f64 * dt_s;
-                // The force holds over 0.02 s windows, so both steps see the same force.
-                let w = (t / PRESET_STEP_S + 1e-9).floor() * PRESET_STEP_S;
-                let push_n = if ((w / 0.5) as usize) % 2 == 0 {
+                // The force holds over 0.02 s windows, so both steps see the same force; the
+                // push comes and goes every 25 windows (0.5 s).
+                let window = (t / PRESET_STEP_S + 1e-9).floor() as usize;
+                let w = window as f64 * PRESET_STEP_S;
+                let push_n = if (window / 25).is_multiple_of(2) {
                     0.0
                 } else {
                     600.0
