@@ -1189,6 +1189,19 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("forward"), "{e}");
+        for bad in ["0", "9"] {
+            let e = ScenarioFile::parse(&format!("plant_substeps = {bad}\n"), "bad")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("plant_substeps") && e.contains("1..=8"), "{e}");
+        }
+        let e = ScenarioFile::parse("plant_substeps = -1\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("plant_substeps"), "{e}");
+        let f = ScenarioFile::parse("plant_substeps = 3\n", "three").unwrap();
+        assert_eq!(f.scenario().plant_substeps, 3);
+        assert_eq!(ScenarioFile::default().scenario().plant_substeps, 1);
     }
 
     #[test]

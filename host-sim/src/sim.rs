@@ -73,7 +73,9 @@ pub struct Scenario {
     pub start_offset_m: Vector3<f64>,
     /// Time budget, s (the authors': 70 s).
     pub duration_s: f64,
-    /// Physics substeps per control step.
+    /// Physics steps per control step (the receiver's and the hose's RK4 steps, the
+    /// docking-plane checks): 2 (0.01 s) in [`Scenario::ideal`], 1 (0.02 s) in a scenario file
+    /// by default (`docs/models.md`, "Physics step").
     pub plant_substeps: u32,
     /// Time simulated after a miss or a breakaway (to record the response), s.
     pub after_event_s: f64,
@@ -118,7 +120,8 @@ pub enum CameraChoice {
 impl Scenario {
     /// The vertical slice's world: calm air, no wake, the drogue held at its nominal trail, an
     /// ideal camera, perfect navigation; paper start; the camera set back from the probe tip
-    /// (the refuelling procedure's, [`ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M`]).
+    /// (the refuelling procedure's, [`ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M`]); the
+    /// 0.01 s physics step.
     pub fn ideal() -> Self {
         Self {
             name: "ideal".into(),
