@@ -7,6 +7,9 @@
 //!   `paper-level2` preset: the air at the receiver (Dryden turbulence, tanker wake), the
 //!   20-link hose and drogue advanced (RK4 with projection, tridiagonal tension solve), then
 //!   the receiver;
+//! - `physics/full_world_step_refuelling`: one physics step of the refuelling presets, 0.02 s
+//!   (one per control period: the hose in one RK4 step, the gusts in two samples), in the
+//!   `level2` preset's environment;
 //! - `physics/camera_frame`: one LED-camera frame of the drogue (projection, noise, circle
 //!   fit), once per control period.
 //!
@@ -22,8 +25,10 @@ use host_sim::scenario::ScenarioFile;
 use host_sim::sim::build_world;
 use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS};
 
-/// One plant substep, s (two per 20 ms control period).
+/// One physics step of the `paper-*` presets, s (two per 20 ms control period).
 const DT_S: f64 = 0.01;
+/// One physics step of the refuelling presets, s (one per control period).
+const REFUELLING_DT_S: f64 = 0.02;
 
 fn benches(c: &mut Criterion) {
     let model = F16::new(NOMINAL_XCG).expect("F-16 data");
@@ -34,6 +39,12 @@ fn benches(c: &mut Criterion) {
         .expect("preset")
         .scenario();
     let world = build_world(&scenario, &model, &trim, DT_S).expect("world");
+    let refuelling = ScenarioFile::load("level2").expect("preset").scenario();
+    assert_eq!(
+        refuelling.plant_substeps, 1,
+        "level2 steps once per control period"
+    );
+    let refuelling_world = build_world(&refuelling, &model, &trim, REFUELLING_DT_S).expect("world");
     let x0 = trim.state;
     let cmd = trim.command;
 
@@ -53,6 +64,18 @@ fn benches(c: &mut Criterion) {
                 let wind = w.receiver_wind(x, t);
                 w.step(DT_S, x, t);
                 model.step_rk4(x, black_box(&cmd), &wind, DT_S);
+            },
+            BatchSize::SmallInput,
+        );
+    });
+    group.bench_function("full_world_step_refuelling", |b| {
+        b.iter_batched_ref(
+            || (refuelling_world.clone(), x0),
+            |(w, x)| {
+                let t = 1.0;
+                let wind = w.receiver_wind(x, t);
+                w.step(REFUELLING_DT_S, x, t);
+                model.step_rk4(x, black_box(&cmd), &wind, REFUELLING_DT_S);
             },
             BatchSize::SmallInput,
         );
