@@ -1083,6 +1083,23 @@ const SALT_NAV_LATENCY: u64 = 0x80;
 const SALT_AIRSPEED: u64 = 0x90;
 const SALT_ALTITUDE: u64 = 0xa0;
 
+/// The salt of a dispersed value named by its key path (for example
+/// `"receiver.elevator_effectiveness"`): 64-bit FNV-1a over the key's bytes. New dispersion
+/// keys take their stream from their name, so adding a key renumbers nothing and changes no
+/// other key's draw; the numbered salts above are the older keys', kept so that their
+/// campaigns stay bit for bit.
+const fn salt_of(key: &str) -> u64 {
+    let bytes = key.as_bytes();
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut i = 0;
+    while i < bytes.len() {
+        hash ^= bytes[i] as u64;
+        hash = hash.wrapping_mul(0x0000_0100_0000_01b3);
+        i += 1;
+    }
+    hash
+}
+
 /// SplitMix64's output function: a bijective mix of 64 bits.
 fn splitmix64(x: u64) -> u64 {
     let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -1368,6 +1385,29 @@ mod tests {
         .unwrap();
         assert_eq!(stated.controller_config().nav_latency_steps, 3);
         assert_eq!(stated.dispersed(7).controller_config().nav_latency_steps, 3);
+    }
+
+    #[test]
+    fn a_named_salt_is_fnv1a_and_differs_from_the_numbered_ones() {
+        // FNV-1a's published test vectors (the empty string and "a").
+        assert_eq!(salt_of(""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(salt_of("a"), 0xaf63_dc4c_8601_ec8c);
+        let numbered = [
+            SALT_SEED,
+            SALT_START,
+            SALT_SIGMA,
+            SALT_NOISE,
+            SALT_LATENCY,
+            SALT_MOUNT,
+            SALT_PITCH,
+            SALT_XCG,
+            SALT_NAV_LATENCY,
+            SALT_AIRSPEED,
+            SALT_ALTITUDE,
+        ];
+        let named = salt_of("receiver.elevator_effectiveness");
+        assert!(numbered.iter().all(|s| (named ^ s) > 0xff), "{named:#x}");
+        assert_ne!(named, salt_of("receiver.aileron_effectiveness"));
     }
 
     #[test]
