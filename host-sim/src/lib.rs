@@ -17,7 +17,8 @@
 //!   and ideal cameras, the INS, fault injection);
 //! - a run: [`scenario`] (scenario files, presets, dispersion; the controller's settings
 //!   are its `[controller]` table, whose schema is [`config_schema`]), [`sim`] (the closed loop),
-//!   [`docking`] (what counts as a dock), [`pil`] (the flight computer inside QEMU over its
+//!   [`docking`] (the drogue plane), [`referee`] (the run judged from truth alone:
+//!   the docking and every hazard), [`pil`] (the flight computer inside QEMU over its
 //!   serial link);
 //! - what a run gives: [`output`] (CSV, JSON), [`plot`], [`record`] (a run recorded in full:
 //!   inputs, hose, camera image, link frames) and from it [`flight_log`] (the MCAP
@@ -47,6 +48,7 @@ pub mod pil;
 pub mod plot;
 pub mod receiver;
 pub mod record;
+pub mod referee;
 pub mod scenario;
 pub mod sim;
 pub mod synthesis;

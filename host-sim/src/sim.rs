@@ -19,13 +19,14 @@ use ibvs_core::{BreakawayReason, Controller, Mode, ModeRequest};
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use crate::docking::{Contact, PlaneCrossing};
+use crate::docking::Contact;
 use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError};
+use crate::referee::{Airframe, CrossingRecord, FlightTruth, Limits, Referee, Truth, Verdict};
 use crate::synthesis::{
     CONTROL_PERIOD_S, NOMINAL_XCG, PROBE_TIP_BODY_M, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS,
 };
 use crate::world::camera::{CameraParams, PinholeCamera};
-use crate::world::drogue::{CAPTURE_RADIUS_M, FixedDrogue};
+use crate::world::drogue::FixedDrogue;
 use crate::world::faults::{FaultInjector, SimFault};
 use crate::world::flight::{FlightCondition, FlightConditionError};
 use crate::world::hose::{HoseDrogue, HoseError, HoseParams};
@@ -58,6 +59,10 @@ impl FlightComputer for Controller {
 /// The paper's start: drogue minus probe tip, tanker axes (6 m ahead, 2 m right, 2 m up), m.
 pub const PAPER_START_M: [f64; 3] = [6.0, 2.0, -2.0];
 
+/// How long a run goes on after the controller breaks away, s: the referee watches the
+/// breakaway manoeuvre itself (where the receiver goes, what it hits) for this long.
+pub const OBSERVE_AFTER_BREAKAWAY_S: f64 = 15.0;
+
 /// Salts that give each random process of a run its own seed from the run's seed.
 const TURBULENCE_SEED_SALT: u64 = 0x7475_7262; // "turb"
 const CAMERA_SEED_SALT: u64 = 0x6361_6d65; // "came"
@@ -77,7 +82,8 @@ pub struct Scenario {
     /// docking-plane checks): 2 (0.01 s) in [`Scenario::ideal`], 1 (0.02 s) in a scenario file
     /// by default (`docs/models.md`, "Physics step").
     pub plant_substeps: u32,
-    /// Time simulated after a miss or a breakaway (to record the response), s.
+    /// Time simulated after the controller breaks away, with the controller still flying its
+    /// breakaway, for the referee to watch it, s (15 s: [`OBSERVE_AFTER_BREAKAWAY_S`]).
     pub after_event_s: f64,
     /// The tanker; its speed and altitude are the run's flight condition
     /// ([`Scenario::flight`]): the receiver is trimmed there and the world's air is that
@@ -129,7 +135,7 @@ impl Scenario {
             start_offset_m: Vector3::from(PAPER_START_M),
             duration_s: 70.0,
             plant_substeps: 2,
-            after_event_s: 2.0,
+            after_event_s: OBSERVE_AFTER_BREAKAWAY_S,
             tanker: Tanker {
                 speed_mps: REFUELLING_SPEED_MPS,
                 altitude_m: REFUELLING_ALTITUDE_M,
@@ -157,30 +163,35 @@ impl Scenario {
     }
 }
 
-/// How a run ended, in order of precedence: a docking; else a strike (the probe reached the
-/// drogue plane outside the capture radius or the closing band while the controller was still
-/// pushing, i.e. not in a missed approach or a breakaway); else a breakaway; else the time
-/// budget. With the paper's procedure the first decisive event is the outcome (its breakaway is
-/// latched); with the refuelling procedure a run may dock at a later attempt after missed
+/// How a run ended, in order of precedence: a docking (the referee's: the coupling latched,
+/// whatever the controller was doing); else a miss (the probe crossed the drogue plane without
+/// docking while the controller was still pushing, i.e. not in a missed approach or a
+/// breakaway); else a breakaway; else the time budget. The docking is judged from truth;
+/// the rest describes the procedure (a safety judgement is the referee's [`Verdict`], never
+/// this). With the paper's procedure the first decisive event is the outcome (its breakaway
+/// is latched); with the refuelling procedure a run may dock at a later attempt after missed
 /// approaches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Outcome {
-    /// The probe reached the drogue plane inside the capture radius and the closing band.
+    /// The coupling latched (the referee's docking).
     Docked,
-    /// The probe reached the drogue plane outside the radius or the band, pushing.
+    /// The probe crossed the drogue plane without docking, the controller pushing.
     Missed,
-    /// Neither contact nor breakaway within the time budget.
+    /// Neither docking nor miss nor breakaway within the time budget.
     Timeout,
     /// The controller broke away (a fault, or the end of the sortie) without docking.
     Aborted,
 }
 
-/// One crossing of the drogue plane by the probe tip.
+/// One crossing of the drogue plane by the probe tip: the referee's record, and what the
+/// controller was doing then (for the record only: the verdict never reads it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PlaneEvent {
     /// Where, when and how fast.
     pub contact: Contact,
+    /// The referee's record of the crossing.
+    pub crossing: CrossingRecord,
     /// The attempt the controller was flying (1 for the paper's single shot).
     pub attempt: u8,
     /// The controller's mode in the control step of the crossing.
@@ -197,8 +208,8 @@ pub struct AttemptRecord {
     /// `docked`, `no-go: <reason>`, `breakaway: <reason>`, or `unfinished` (the run ended
     /// during it).
     pub end: String,
-    /// The probe struck (crossed the plane outside the capture criteria while pushing) in
-    /// this attempt.
+    /// The probe crossed the plane without docking while the controller pushed in this
+    /// attempt.
     pub struck: bool,
     /// Time the attempt ended, s.
     pub time_s: f64,
@@ -253,6 +264,8 @@ pub struct Summary {
 pub struct Run {
     /// Summary.
     pub summary: Summary,
+    /// The referee's verdict: the docking, every crossing, every hazard.
+    pub verdict: Verdict,
     /// The first plane crossing, if any (docking, strike, or after a breakaway).
     pub contact: Option<Contact>,
     /// Every crossing of the drogue plane, in time order.
@@ -559,16 +572,14 @@ pub fn run_observed(
     let steps = (s.duration_s / ts).ceil() as usize;
 
     let tip = |x: &ReceiverState, t: f64| point_in_tanker_m(&s.tanker, x, &s.probe_tip_body_m, t);
-    let mut crossing = PlaneCrossing::default();
-    crossing.observe(
-        0.0,
-        world.drogue_centre_tanker_m() - tip(&x, 0.0),
-        CAPTURE_RADIUS_M,
+    let mut referee = Referee::new(
+        referee_limits(&world),
+        Airframe::f16(s.probe_tip_body_m.into()),
     );
+    referee.observe(&truth(s, &x, 0.0, &world));
     let mut crossings: Vec<PlaneEvent> = Vec::new();
     let mut attempts = AttemptLog::default();
     let mut latched = false;
-    let mut docked_at: Option<f64> = None;
     let mut breakaway_at: Option<f64> = None;
     let mut samples = Vec::with_capacity(steps);
     let mut reason = None;
@@ -577,6 +588,10 @@ pub fn run_observed(
     for k in 0..steps {
         let t = k as f64 * ts;
         let (tip_now, drogue_now) = (tip(&x, t), world.drogue_centre_tanker_m());
+        let wind_now = world.receiver_wind(&x, t);
+        referee.observe_flight(&flight_truth(
+            &model, &s.tanker, &x, &wind_now, t, drogue_now,
+        ));
         let measurement = if injector.is_empty() {
             world.capture(&x, t)
         } else {
@@ -592,7 +607,7 @@ pub fn run_observed(
             measurement,
             nav: injector.nav(nav.sample(&s.tanker, &x, t)),
             probe_contact: latched,
-            request: if engaged_before || breakaway_at.is_some() || docked_at.is_some() {
+            request: if engaged_before || breakaway_at.is_some() || latched {
                 ModeRequest::None
             } else {
                 ModeRequest::Engage
@@ -622,7 +637,7 @@ pub fn run_observed(
             reason = output.breakaway_reason.map(|r| format!("{r:?}"));
             breakaway_at = Some(t);
         }
-        if docked_at.is_some() || breakaway_at.is_some_and(|at| t >= at + s.after_event_s) {
+        if latched || breakaway_at.is_some_and(|at| t >= at + s.after_event_s) {
             break;
         }
         let cmd = injector.actuate(
@@ -637,34 +652,36 @@ pub fn run_observed(
         );
         for i in 0..s.plant_substeps {
             let ti = t + f64::from(i) * dt;
-            let wind = world.receiver_wind(&x, ti);
+            let wind = if i == 0 {
+                wind_now
+            } else {
+                world.receiver_wind(&x, ti)
+            };
             world.step(dt, &x, ti);
             model.step_rk4(&mut x, &cmd, &wind, dt);
-            let t_end = ti + dt;
-            if let Some(c) = crossing.observe(
-                t_end,
-                world.drogue_centre_tanker_m() - tip(&x, t_end),
-                CAPTURE_RADIUS_M,
-            ) {
-                let pushing = !matches!(output.mode, Mode::MissedApproach | Mode::Breakaway);
-                crossings.push(PlaneEvent {
-                    contact: c,
-                    attempt: attempts.current(),
-                    mode: output.mode,
-                    pushing,
-                });
-                if pushing && c.docked && !latched {
-                    // The probe enters the coupling: it latches (the contact discrete).
-                    latched = true;
-                    docked_at = Some(c.time_s);
-                } else if pushing {
-                    attempts.struck();
-                }
+            let Some(c) = referee.observe(&truth(s, &x, ti + dt, &world)) else {
+                continue;
+            };
+            // What the controller was doing: a record for the reader, not for the verdict.
+            let pushing = !matches!(output.mode, Mode::MissedApproach | Mode::Breakaway);
+            crossings.push(PlaneEvent {
+                contact: Contact::from(&c),
+                crossing: c,
+                attempt: attempts.current(),
+                mode: output.mode,
+                pushing,
+            });
+            if referee.docking().is_some() {
+                // The probe is in the coupling: it latches (the contact discrete); the step
+                // ends as it would have, the referee judging nothing more.
+                latched = true;
+            } else if pushing {
+                attempts.struck();
             }
         }
     }
     attempts.finish(samples.last().map_or(0.0, |p| p.time_s));
-    let docking = crossings.iter().find(|e| e.pushing && e.contact.docked);
+    let docking = crossings.iter().find(|e| e.contact.docked);
     let strike = crossings.iter().find(|e| e.pushing && !e.contact.docked);
     let (outcome, time_s, decisive) = match (docking, strike, breakaway_at) {
         (Some(d), _, _) => (Outcome::Docked, d.contact.time_s, Some(d.contact)),
@@ -685,10 +702,67 @@ pub fn run_observed(
             airspeed_mps: flight.airspeed_mps,
             altitude_m: flight.altitude_m,
         },
+        verdict: referee.into_verdict(),
         contact,
         crossings,
         attempts: attempts.records,
         samples,
         trim,
     })
+}
+
+/// The referee's limits for this world: the stated figures ([`Limits::default`]) with the
+/// canopy and the hose of the world's own drogue.
+fn referee_limits(world: &World) -> Limits {
+    match &world.drogue {
+        Drogue::Hose(h) => Limits {
+            canopy_radius_m: h.params().drogue_canopy_diameter_m / 2.0,
+            hose_radius_m: h.params().hose_outer_radius_m,
+            ..Limits::default()
+        },
+        Drogue::Fixed(_) => Limits::default(),
+    }
+}
+
+/// The truth of one physics step for the referee: the receiver, the drogue, the hose.
+fn truth<'w>(s: &Scenario, x: &ReceiverState, t_s: f64, world: &'w World) -> Truth<'w> {
+    let tanker = &s.tanker;
+    let tanker_from_body = ned_from_body(x);
+    Truth {
+        time_s: t_s,
+        probe_tip_tanker_m: point_in_tanker_m(tanker, x, &s.probe_tip_body_m, t_s),
+        cg_tanker_m: point_in_tanker_m(tanker, x, &Vector3::zeros(), t_s),
+        cg_velocity_tanker_mps: tanker_from_body * x.vel_body_mps
+            - Vector3::new(tanker.speed_mps, 0.0, 0.0),
+        tanker_from_body,
+        rate_body_radps: x.rate_body_radps,
+        drogue_centre_tanker_m: world.drogue_centre_tanker_m(),
+        drogue_velocity_tanker_mps: world.drogue_velocity_tanker_mps(),
+        drogue_axis_tanker: world.drogue_axis_tanker(),
+        hose_tanker_m: world.hose_nodes_tanker_m(),
+    }
+}
+
+/// The receiver's flight at a control step for the referee: attitude, the angle of attack in
+/// the air it flies (`wind`), the normal load factor from the aerodynamic and thrust loads.
+fn flight_truth(
+    model: &F16,
+    tanker: &Tanker,
+    x: &ReceiverState,
+    wind: &crate::receiver::Wind,
+    t_s: f64,
+    drogue_centre_tanker_m: Vector3<f64>,
+) -> FlightTruth {
+    let loads = model.body_loads(x, wind);
+    FlightTruth {
+        time_s: t_s,
+        bank_rad: x.euler_rad.x,
+        pitch_rad: x.euler_rad.y,
+        alpha_rad: model.air_data(x, wind).alpha_rad,
+        load_factor: -loads.force_body_n.z / (model.mass_kg() * model.gravity_mps2()),
+        cg_tanker_m: point_in_tanker_m(tanker, x, &Vector3::zeros(), t_s),
+        cg_velocity_tanker_mps: ned_from_body(x) * x.vel_body_mps
+            - Vector3::new(tanker.speed_mps, 0.0, 0.0),
+        drogue_centre_tanker_m,
+    }
 }

@@ -174,6 +174,23 @@ impl World {
         }
     }
 
+    /// Drogue velocity, tanker frame, m/s (zero for a fixed drogue).
+    pub fn drogue_velocity_tanker_mps(&self) -> Vector3<f64> {
+        match &self.drogue {
+            Drogue::Fixed(_) => Vector3::zeros(),
+            Drogue::Hose(h) => h.drogue_velocity_tanker_mps(),
+        }
+    }
+
+    /// The hose's nodes from the exit to the drogue centre, tanker frame, m (none for a fixed
+    /// drogue, which has no hose).
+    pub fn hose_nodes_tanker_m(&self) -> &[Vector3<f64>] {
+        match &self.drogue {
+            Drogue::Fixed(_) => &[],
+            Drogue::Hose(h) => h.node_positions_tanker_m(),
+        }
+    }
+
     /// Drogue axis (from the hose toward the drogue), tanker frame, unit.
     pub fn drogue_axis_tanker(&self) -> Vector3<f64> {
         match &self.drogue {
