@@ -10,8 +10,8 @@
 //! toward the tanker over the last control step), any no-go, every crossing of the drogue plane
 //! (time, miss with its direction, closing speed, mode; after a breakaway, how far the tip climbed
 //! since), the counters the page cites (for the actuator faults the rejected frames and navigation
-//! samples, which say why the controller broke away), and `UNSAFE` when `montecarlo::is_unsafe`
-//! holds (the tests assert that it never does). A `MeasurementLost` breakaway also shows when the
+//! samples, which say why the controller broke away), and `UNSAFE` with the hazards when the
+//! referee (`host_sim::referee`) saw any (the tests assert that it never does). A `MeasurementLost` breakaway also shows when the
 //! coasting that it ended began. Sections follow the page: the reference runs, the range triggers,
 //! the table's rows, the known gaps.
 //!
@@ -26,7 +26,6 @@
 use std::error::Error;
 use std::fmt::Write as _;
 
-use host_sim::montecarlo::is_unsafe;
 use host_sim::scenario::{CameraPlacement, NavModel, ScenarioFile};
 use host_sim::sim::{Outcome, PlaneEvent, Run, run_with_faults};
 use host_sim::world::faults::{Actuator, FaultKind, SimFault};
@@ -124,30 +123,6 @@ fn first_within(run: &Run, range_m: f64) -> Option<usize> {
         .position(|s| s.drogue_from_tip_m.x <= range_m)
 }
 
-/// `[right, up]` of the probe tip from the drogue centre where it crossed the plane at
-/// `time_s`, scaled to `miss_m` (as `montecarlo`'s record does for the first crossing).
-fn plane_offset(run: &Run, time_s: f64, miss_m: f64) -> [f64; 2] {
-    let s = &run.samples;
-    let Some(k) = s.iter().rposition(|p| p.time_s <= time_s) else {
-        return [f64::NAN; 2];
-    };
-    let a = s[k].drogue_from_tip_m;
-    let r = match s.get(k + 1) {
-        Some(n) if a.x > 0.0 && n.drogue_from_tip_m.x <= 0.0 => {
-            let b = n.drogue_from_tip_m;
-            a + (b - a) * (a.x / (a.x - b.x))
-        }
-        _ => a,
-    };
-    let (right, up) = (-r.y, r.z);
-    let norm = right.hypot(up);
-    if norm > 0.0 {
-        [right * miss_m / norm, up * miss_m / norm]
-    } else {
-        [miss_m, 0.0]
-    }
-}
-
 /// Height of the probe tip (tanker axes, up) at the step of `time_s`, m.
 fn tip_up_m(run: &Run, time_s: f64) -> f64 {
     run.samples
@@ -158,7 +133,7 @@ fn tip_up_m(run: &Run, time_s: f64) -> f64 {
 
 fn crossing(f: &Flown, e: &PlaneEvent, breakaway_s: Option<f64>) -> String {
     let c = &e.contact;
-    let [right, up] = plane_offset(&f.run, c.time_s, c.miss_m);
+    let [right, up] = e.crossing.offset_m;
     let mut out = format!(
         "plane at {:.2} s ({}{}): {:.3} m from the centre (right {:+.2}, up {:+.2}) at {:.3} m/s",
         c.time_s,
@@ -239,8 +214,15 @@ fn describe(f: &Flown) -> String {
     for e in others {
         let _ = write!(out, "; {}", crossing(f, e, b_s));
     }
-    if is_unsafe(&f.run) {
-        out.push_str("; UNSAFE");
+    if !f.run.verdict.safe() {
+        let what: Vec<String> = f
+            .run
+            .verdict
+            .hazards
+            .iter()
+            .map(|h| format!("{} at {:.2} s: {}", h.kind.name(), h.time_s, h.what))
+            .collect();
+        let _ = write!(out, "; UNSAFE ({})", what.join("; "));
     }
     out
 }

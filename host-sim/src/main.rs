@@ -173,12 +173,18 @@ struct MonteCarloArgs {
     /// Runs in the whole campaign (run i flies the dispersion drawn for index i).
     #[arg(long, required_unless_present = "show_run")]
     runs: Option<u64>,
+    /// The campaign's first run index: runs FIRST..FIRST+RUNS. A campaign reported on should
+    /// not share runs with the ones its thresholds were chosen on (docs/scenarios.md,
+    /// "Evaluation protocol").
+    #[arg(long, value_name = "FIRST", default_value_t = 0)]
+    first_run: u64,
     /// Parallel runs (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
-    /// Run only part K of M (1-based; runs i with i mod M = K - 1), to merge later. Without
-    /// it, a Slurm array task takes its part from SLURM_ARRAY_TASK_ID, and a Kubernetes
-    /// Indexed Job from JOB_COMPLETION_INDEX with --shards.
+    /// Run only part K of M (1-based; the runs at positions K - 1, K - 1 + M, ... of the
+    /// campaign), to merge later. Without it, a Slurm array task takes its part from
+    /// SLURM_ARRAY_TASK_ID, and a Kubernetes Indexed Job from JOB_COMPLETION_INDEX with
+    /// --shards.
     #[arg(long, value_name = "K/M")]
     shard: Option<Shard>,
     /// Number of parts of a Kubernetes Indexed Job (its completions), whose environment gives
@@ -400,7 +406,7 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
             from_env.map(|(s, _)| s)
         }
     };
-    let indices = montecarlo::indices(runs, shard);
+    let indices = montecarlo::indices(args.first_run, runs, shard);
     let started = std::time::Instant::now();
     let computer = if args.pil {
         let elf = match args.firmware {
@@ -413,11 +419,13 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
     };
     let lines = montecarlo::run_campaign_on(&f, &indices, args.jobs, &computer)?;
     let wall_s = started.elapsed().as_secs_f64();
-    let meta = CampaignMeta::new(&f, runs, shard).on(&computer);
+    let meta = CampaignMeta::new(&f, runs, shard)
+        .from_run(args.first_run)
+        .on(&computer);
     let summary = montecarlo::write_campaign(&args.out, &meta, &lines)?;
     println!("{}", montecarlo::one_line(&summary));
     eprintln!(
-        "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, success_vs_turbulence.png, success_vs_condition.png}}",
+        "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, hazards.png, success_vs_turbulence.png, success_vs_condition.png}}",
         indices.len(),
         args.jobs.unwrap_or_else(rayon::current_num_threads),
         args.out.display()

@@ -7,18 +7,27 @@
 //! the shards merged ([`merge`]) into exactly the output of one machine. Runs are parallel
 //! (rayon); the output is in index order whatever the parallelism.
 //!
+//! A campaign is runs `first_run .. first_run + runs` (`--first-run`, default 0), so that a
+//! campaign reported on can be one that no threshold was chosen on (`docs/scenarios.md`,
+//! "Evaluation protocol").
+//!
 //! Output directory:
 //! - `runs.jsonl`: one JSON object per run, in index order: [`RunRecord`] (inputs, outcome,
-//!   miss and closing speed, failure cause, unsafe flag);
-//! - `campaign.json`: [`CampaignMeta`] (the scenario as TOML, the campaign size, the shard);
-//! - `summary.json`: [`CampaignSummary`] (success rate with a 95 % Wilson interval, unsafe
-//!   end states, miss and closing-speed percentiles, failure causes, success against
-//!   turbulence intensity, success per cell of the gain schedule's grid of flight
-//!   conditions and the runs outside it);
-//! - `miss_scatter.png`: where the probe tip crossed the drogue plane, seen from behind,
-//!   with the capture circle; `success_vs_turbulence.png`: success rate (and its interval)
-//!   per turbulence-intensity bin; `success_vs_condition.png`: success rate per cell of the
-//!   grid as a heat map of airspeed by altitude.
+//!   the referee's docking, every crossing of the drogue plane and every hazard, failure
+//!   cause);
+//! - `campaign.json`: [`CampaignMeta`] (the scenario as TOML, the campaign's first run and
+//!   size, the shard);
+//! - `summary.json`: [`CampaignSummary`] (docked and success rates with 95 % Wilson
+//!   intervals, each hazard's count with its one-sided 95 % upper bound, the crossings by
+//!   verdict, miss, closing and lateral-speed percentiles, failure causes, success against
+//!   turbulence intensity, success per cell of the gain schedule's grid of flight conditions
+//!   and the runs outside it);
+//! - `miss_scatter.png`: every crossing of the drogue plane, seen from behind, one marker per
+//!   crossing and a marker shape per verdict (docking, hard contact, basket strike, fly-by),
+//!   with the capture and strike circles; `hazards.png`: where every hazard happened, top and
+//!   side views in the tanker frame; `success_vs_turbulence.png`: success rate (and its
+//!   interval) per turbulence-intensity bin; `success_vs_condition.png`: success rate per cell
+//!   of the grid as a heat map of airspeed by altitude.
 //!
 //! The cells are those of the core's gain schedule ([`ibvs_core::gains::SCHEDULE_SPEEDS_MPS`]
 //! by [`ibvs_core::gains::SCHEDULE_ALTITUDES_M`]), taken from the run's true flight
@@ -26,15 +35,13 @@
 //! core's interpolation takes it ([`condition_cell`]), so every run is in exactly one cell or
 //! outside the grid.
 //!
-//! Definitions (also in `docs/scenarios.md`, "Monte Carlo campaigns"):
-//! - *success*: the run docked ([`Outcome::Docked`]: inside the capture radius and the
-//!   closing band at the first crossing of the drogue plane);
-//! - *unsafe end state*: the probe tip crossed the drogue plane before any breakaway outside
-//!   the capture radius, or crossed it (at any time) faster than the closing band's maximum
-//!   closer to the drogue centre than one canopy diameter
-//!   ([`crate::docking::FAST_PASS_CLEARANCE_M`]). Any other crossing after a breakaway (slow,
-//!   or fast and clear of the canopy) is counted separately (`crossed_after_breakaway`), not
-//!   as unsafe.
+//! Definitions (also in `docs/scenarios.md`, "Monte Carlo campaigns"), all from the referee
+//! ([`crate::referee`]), which reads the simulator's truth and never the controller:
+//! - *docked*: the coupling latched (inside the capture radius, closing in the band, within
+//!   the lateral limit), at any attempt;
+//! - *unsafe*: any hazard (basket strike, hard contact, drogue on the airframe, hose contact,
+//!   tanker proximity, upset near the tanker);
+//! - *success*: docked and safe.
 //!
 //! Invariants: nothing in the files depends on the machine, the number of jobs or the shard
 //! split (wall time is printed, not written); the summary is computed from the JSON lines as
@@ -54,9 +61,10 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::docking::{CLOSING_BAND_MPS, FAST_PASS_CLEARANCE_M};
+use crate::docking::CLOSING_BAND_MPS;
 use crate::output::OutputError;
 use crate::plot::{self, PALETTE, dbg};
+use crate::referee::{CrossingVerdict, Direction, Hazard, HazardKind, Limits};
 use crate::scenario::{DispersionSection, ScenarioError, ScenarioFile};
 use crate::sim::{self, Outcome, Run};
 use crate::world::drogue::CAPTURE_RADIUS_M;
@@ -250,11 +258,16 @@ pub fn shard_from_env(
     }
 }
 
-/// The run indices of a campaign of `runs` runs in `shard` (all of them without one).
-pub fn indices(runs: u64, shard: Option<Shard>) -> Vec<u64> {
+/// The run indices of a campaign of `runs` runs from `first_run` in `shard` (all of them
+/// without one): shard `K/M` takes the runs at positions `K - 1, K - 1 + M, ...` of the
+/// campaign.
+pub fn indices(first_run: u64, runs: u64, shard: Option<Shard>) -> Vec<u64> {
+    let end = first_run.saturating_add(runs);
     match shard {
-        None => (0..runs).collect(),
-        Some(s) => (s.k - 1..runs).step_by(s.m as usize).collect(),
+        None => (first_run..end).collect(),
+        Some(s) => (first_run.saturating_add(s.k - 1)..end)
+            .step_by(s.m as usize)
+            .collect(),
     }
 }
 
@@ -343,13 +356,28 @@ impl RunOutcome {
     }
 }
 
-/// A crossing of the drogue plane.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Crossing {
-    /// Radial offset of the probe tip from the drogue centre, m.
+/// A crossing of the drogue plane in `runs.jsonl`: the referee's record, and what the
+/// controller was flying then (for the reader: the verdict never reads it).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CrossingLine {
+    /// Time, s.
+    pub time_s: f64,
+    /// The attempt the controller was flying.
+    pub attempt: u8,
+    /// The controller's mode then.
+    pub mode: String,
+    /// Which way the probe tip crossed.
+    pub direction: Direction,
+    /// Probe tip relative to the drogue centre, seen from behind: right, up, m.
+    pub offset_m: [f64; 2],
+    /// Radial offset, m.
     pub miss_m: f64,
-    /// Closing speed, m/s.
-    pub closure_mps: f64,
+    /// Closing speed (negative outbound), m/s.
+    pub closing_mps: f64,
+    /// Speed across the drogue's axis relative to it, m/s.
+    pub lateral_mps: f64,
+    /// The referee's verdict.
+    pub verdict: CrossingVerdict,
 }
 
 /// One line of `runs.jsonl`.
@@ -361,25 +389,24 @@ pub struct RunRecord {
     pub seed: u64,
     /// What it flew.
     pub inputs: RunInputs,
-    /// How it ended.
+    /// How the procedure ended ([`Outcome`]: the docking is the referee's, the rest
+    /// describes the procedure).
     pub outcome: RunOutcome,
-    /// Outcome is docked.
+    /// The referee: the coupling latched.
     pub docked: bool,
-    /// An unsafe end state (module doc).
-    pub unsafe_end: bool,
+    /// The referee: no hazard.
+    pub safe: bool,
+    /// Docked and safe.
+    pub success: bool,
     /// Why it did not dock (`None` when it docked).
     pub failure: Option<String>,
-    /// Radial miss at the drogue plane when reached before any breakaway, m.
+    /// Radial miss at the decisive crossing (the docking, or the first miss while the
+    /// controller pushed), m.
     pub miss_m: Option<f64>,
     /// Closing speed then, m/s.
     pub closure_mps: Option<f64>,
-    /// Where the probe tip crossed the plane relative to the drogue centre, seen from
-    /// behind: `[right, up]`, m (direction interpolated between control steps, length the
-    /// miss).
-    pub plane_offset_m: Option<[f64; 2]>,
-    /// The first crossing after the controller stopped pushing (a missed approach or a
-    /// breakaway).
-    pub crossed_after_breakaway: Option<Crossing>,
+    /// Speed across the drogue's axis at the docking, m/s.
+    pub lateral_mps: Option<f64>,
     /// Time of the decisive event, s.
     pub time_s: f64,
     /// The controller's breakaway reason, if it broke away (before or after the plane).
@@ -387,58 +414,22 @@ pub struct RunRecord {
     /// Attempts flown (1 for the paper's procedure).
     pub attempts: u8,
     /// How each attempt ended, in order (`docked`, `no-go: <reason>`, `breakaway: <reason>`,
-    /// `unfinished`; `struck` appended when the probe struck in it).
+    /// `unfinished`; `struck` appended when the probe crossed without docking while the
+    /// controller pushed).
     pub attempt_ends: Vec<String>,
     /// Docked at the first attempt.
     pub first_attempt_docked: bool,
-}
-
-/// Where the probe tip crossed the drogue plane, `[right, up]` of the tip relative to the
-/// drogue centre, scaled to the contact's miss.
-fn plane_offset(run: &Run) -> Option<[f64; 2]> {
-    let c = run.contact?;
-    let s = &run.samples;
-    let k = s.iter().rposition(|p| p.time_s <= c.time_s)?;
-    let a = s[k].drogue_from_tip_m;
-    let r = match s.get(k + 1) {
-        Some(n) if a.x > 0.0 && n.drogue_from_tip_m.x <= 0.0 => {
-            let b = n.drogue_from_tip_m;
-            let f = a.x / (a.x - b.x);
-            a + (b - a) * f
-        }
-        _ => a,
-    };
-    let (right, up) = (-r.y, r.z);
-    let norm = right.hypot(up);
-    Some(if norm > 0.0 {
-        [right * c.miss_m / norm, up * c.miss_m / norm]
-    } else {
-        [c.miss_m, 0.0]
-    })
-}
-
-/// True when `run` ended in an unsafe state (module doc): the probe tip struck (crossed the
-/// drogue plane outside the capture radius or the closing band while the controller was
-/// still pushing, i.e. before any missed approach or breakaway of that attempt), or crossed
-/// it (at any time) faster than the closing band within one canopy diameter of the drogue
-/// centre.
-pub fn is_unsafe(run: &Run) -> bool {
-    run.crossings.iter().any(|e| {
-        let c = &e.contact;
-        let struck = e.pushing && !c.docked;
-        let fast_and_close = c.closure_mps > CLOSING_BAND_MPS.1 && c.miss_m < FAST_PASS_CLEARANCE_M;
-        struck || fast_and_close
-    })
+    /// Every crossing of the drogue plane, in time order.
+    pub crossings: Vec<CrossingLine>,
+    /// Every hazard, in order of onset.
+    pub hazards: Vec<Hazard>,
 }
 
 /// The record of a finished run.
 fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
     let s = &run.summary;
+    let v = &run.verdict;
     let reached = s.miss_m.zip(s.closure_mps);
-    let after = run.crossings.iter().find(|e| !e.pushing).map(|e| Crossing {
-        miss_m: e.contact.miss_m,
-        closure_mps: e.contact.closure_mps,
-    });
     let failure = match s.outcome {
         Outcome::Docked => None,
         Outcome::Aborted => Some(format!(
@@ -449,7 +440,8 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
         Outcome::Missed => Some(
             match reached {
                 Some((m, _)) if m >= CAPTURE_RADIUS_M => "missed: outside the capture radius",
-                Some((_, v)) if v > CLOSING_BAND_MPS.1 => "missed: closing faster than the band",
+                Some((_, c)) if c > CLOSING_BAND_MPS.1 => "missed: closing faster than the band",
+                Some((_, c)) if c >= CLOSING_BAND_MPS.0 => "missed: sliding across too fast",
                 _ => "missed: closing slower than the band",
             }
             .into(),
@@ -460,17 +452,13 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
         seed: f.seed,
         inputs: RunInputs::of(f),
         outcome: s.outcome.into(),
-        docked: s.docked,
-        unsafe_end: is_unsafe(run),
+        docked: v.docked(),
+        safe: v.safe(),
+        success: v.success(),
         failure,
         miss_m: s.miss_m,
         closure_mps: s.closure_mps,
-        plane_offset_m: if reached.is_some() {
-            plane_offset(run)
-        } else {
-            None
-        },
-        crossed_after_breakaway: after,
+        lateral_mps: v.docking.map(|d| d.lateral_mps),
         time_s: s.time_s,
         breakaway_reason: s.breakaway_reason.clone(),
         attempts: s.attempts,
@@ -486,6 +474,22 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
             })
             .collect(),
         first_attempt_docked: run.attempts.first().is_some_and(|a| a.end == "docked"),
+        crossings: run
+            .crossings
+            .iter()
+            .map(|e| CrossingLine {
+                time_s: e.crossing.time_s,
+                attempt: e.attempt,
+                mode: format!("{:?}", e.mode),
+                direction: e.crossing.direction,
+                offset_m: e.crossing.offset_m,
+                miss_m: e.crossing.miss_m,
+                closing_mps: e.crossing.closing_mps,
+                lateral_mps: e.crossing.lateral_mps,
+                verdict: e.crossing.verdict,
+            })
+            .collect(),
+        hazards: v.hazards.clone(),
     }
 }
 
@@ -550,17 +554,19 @@ pub fn run_one_on(base: &ScenarioFile, index: u64, computer: &CampaignComputer) 
             inputs: RunInputs::of(&f),
             outcome: RunOutcome::Error,
             docked: false,
-            unsafe_end: false,
+            safe: false,
+            success: false,
             failure: Some(format!("error: {e}")),
             miss_m: None,
             closure_mps: None,
-            plane_offset_m: None,
-            crossed_after_breakaway: None,
+            lateral_mps: None,
             time_s: 0.0,
             breakaway_reason: None,
             attempts: 0,
             attempt_ends: Vec::new(),
             first_attempt_docked: false,
+            crossings: Vec::new(),
+            hazards: Vec::new(),
         },
     }
 }
@@ -572,6 +578,9 @@ pub struct CampaignMeta {
     pub scenario: String,
     /// The scenario file, every key written out (its `[dispersion]` included).
     pub scenario_toml: String,
+    /// The campaign's first run index (`--first-run`).
+    #[serde(default)]
+    pub first_run: u64,
     /// Runs in the whole campaign.
     pub runs: u64,
     /// The shard these runs are (`"K/M"`), none for a whole or merged campaign.
@@ -588,16 +597,28 @@ fn in_process() -> String {
 }
 
 impl CampaignMeta {
-    /// The meta of a campaign of `runs` runs of `f` (`shard` of it), flown in process.
+    /// The meta of a campaign of `runs` runs of `f` from run 0 (`shard` of it), flown in
+    /// process.
     pub fn new(f: &ScenarioFile, runs: u64, shard: Option<Shard>) -> Self {
         Self {
             scenario: f.name.clone(),
             scenario_toml: f.to_toml(),
+            first_run: 0,
             runs,
             shard: shard.map(|s| s.to_string()),
             host_sim_version: env!("CARGO_PKG_VERSION").into(),
             flight_computer: in_process(),
         }
+    }
+
+    /// The same campaign starting at run `first_run`.
+    pub fn from_run(self, first_run: u64) -> Self {
+        Self { first_run, ..self }
+    }
+
+    /// The run indices of the whole campaign.
+    pub fn run_range(&self) -> std::ops::Range<u64> {
+        self.first_run..self.first_run.saturating_add(self.runs)
     }
 
     /// The same, flown on `computer`.
@@ -697,6 +718,45 @@ pub fn wilson(k: u64, n: u64) -> Interval {
     }
 }
 
+/// The exact one-sided 95 % upper confidence bound (Clopper-Pearson) on a proportion of `k`
+/// events in `n` trials: the `p` at which `k` or fewer events have probability 5 %. For
+/// `k = 0` it is `1 - 0.05^(1/n)` (about `3 / n`, the "rule of three"); 1 for `n = 0` or
+/// `k >= n`.
+pub fn upper95(k: u64, n: u64) -> f64 {
+    if n == 0 || k >= n {
+        return 1.0;
+    }
+    if k == 0 {
+        return 1.0 - 0.05_f64.powf(1.0 / n as f64);
+    }
+    // P(X <= k) for X ~ Binomial(n, p), summed from i = 0 in logarithms (each term from the
+    // last: a ratio), so that it neither overflows nor underflows for large n.
+    let cdf = |p: f64| {
+        let (lp, lq) = (p.ln(), (-p).ln_1p());
+        let mut log_term = n as f64 * lq;
+        let mut sum = log_term.exp();
+        for i in 0..k {
+            log_term += ((n - i) as f64).ln() - ((i + 1) as f64).ln() + lp - lq;
+            sum += log_term.exp();
+        }
+        sum
+    };
+    // The CDF falls as p rises: bisect for the p where it is 0.05, from k / n up.
+    let (mut lo, mut hi) = (k as f64 / n as f64, 1.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if cdf(mid) > 0.05 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-12 {
+            break;
+        }
+    }
+    hi
+}
+
 /// The `p`-quantile (0..=1) of sorted values, linear between order statistics (Hyndman and
 /// Fan type 7, as numpy's default); `None` when empty.
 pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
@@ -758,12 +818,23 @@ pub struct TurbulenceBin {
     pub sigma_hi_mps: f64,
     /// Runs in the bin.
     pub runs: u64,
-    /// Of which docked.
-    pub docked: u64,
-    /// Docked fraction (0 for an empty bin).
-    pub success_rate: f64,
-    /// Its 95 % Wilson interval.
-    pub success_ci95: Interval,
+    /// Of which successful (docked and safe).
+    pub success: u64,
+    /// Their fraction (null for an empty bin).
+    pub success_rate: Option<f64>,
+    /// Its 95 % Wilson interval (null for an empty bin).
+    pub success_ci95: Option<Interval>,
+}
+
+/// One kind of hazard over a campaign.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HazardCount {
+    /// Runs with at least one.
+    pub runs: u64,
+    /// Hazards in all (a run may have several).
+    pub events: u64,
+    /// One-sided 95 % upper bound on the fraction of runs with one ([`upper95`]).
+    pub runs_upper95: f64,
 }
 
 /// `summary.json`.
@@ -771,15 +842,23 @@ pub struct TurbulenceBin {
 pub struct CampaignSummary {
     /// Scenario name.
     pub scenario: String,
+    /// The campaign's first run index.
+    pub first_run: u64,
     /// Runs in the whole campaign.
     pub campaign_runs: u64,
     /// The shard summarised (none: the whole campaign).
     pub shard: Option<String>,
     /// Runs summarised here.
     pub runs: u64,
-    /// Of which docked (within the sortie, at any attempt).
+    /// Of which docked (the referee's latch, within the sortie, at any attempt).
     pub docked: u64,
     /// Docked fraction.
+    pub docked_rate: f64,
+    /// Its 95 % confidence interval (Wilson score).
+    pub docked_ci95: Interval,
+    /// Of which successful: docked and safe.
+    pub success: u64,
+    /// Successful fraction.
     pub success_rate: f64,
     /// Its 95 % confidence interval (Wilson score).
     pub success_ci95: Interval,
@@ -791,20 +870,28 @@ pub struct CampaignSummary {
     pub attempts_histogram: BTreeMap<u8, u64>,
     /// Attempts per way an attempt ended, over all runs.
     pub attempt_ends: BTreeMap<String, u64>,
-    /// Runs ending in an unsafe state (module doc).
-    pub unsafe_end_states: u64,
-    /// Their fraction's 95 % Wilson interval.
-    pub unsafe_ci95: Interval,
-    /// Runs whose probe crossed the drogue plane after a breakaway (at a safe speed or not).
-    pub crossed_after_breakaway: u64,
+    /// Runs with any hazard.
+    pub unsafe_runs: u64,
+    /// One-sided 95 % upper bound on their fraction.
+    pub unsafe_upper95: f64,
+    /// Each kind of hazard (every kind listed, zero or not).
+    pub hazards: BTreeMap<String, HazardCount>,
+    /// Crossings of the drogue plane per verdict (every verdict listed).
+    pub crossings: BTreeMap<String, u64>,
+    /// Dockings the referee judged while the controller was in a missed approach or a
+    /// breakaway (the coupling latches whatever the controller intends: a reader's figure, not
+    /// a judgement).
+    pub docked_while_backing_off: u64,
     /// Runs per outcome.
     pub outcomes: BTreeMap<String, u64>,
     /// Runs per failure cause (breakaway reason, kind of miss, timeout, error).
     pub failure_causes: BTreeMap<String, u64>,
-    /// Miss at the drogue plane over the runs that reached it before any breakaway, m.
+    /// Miss at the decisive crossing (the docking, or the first miss while pushing), m.
     pub miss_m: Option<Percentiles>,
     /// Closing speed then, m/s.
     pub closure_mps: Option<Percentiles>,
+    /// Speed across the drogue's axis at the docking, m/s.
+    pub lateral_mps: Option<Percentiles>,
     /// Success rate per turbulence-intensity bin.
     pub success_by_turbulence: Vec<TurbulenceBin>,
     /// Success per cell of the gain schedule's grid of flight conditions ([`condition_cell`]
@@ -818,6 +905,8 @@ pub struct CampaignSummary {
     pub outside_condition_grid: u64,
     /// The dispersion flown.
     pub dispersion: DispersionSection,
+    /// The referee's limits (the canopy and hose radii are the nominal drogue's).
+    pub referee_limits: Limits,
     /// Definitions of the numbers above.
     pub definitions: BTreeMap<String, String>,
 }
@@ -831,16 +920,25 @@ pub struct ConditionCell {
     pub altitude_m: [f64; 2],
     /// Runs in the cell.
     pub runs: u64,
-    /// Of which docked (within the sortie).
-    pub docked: u64,
-    /// Docked fraction (0 for an empty cell).
-    pub success_rate: f64,
-    /// Its 95 % Wilson interval (`[0, 1]` for an empty cell).
-    pub success_ci95: Interval,
+    /// Of which successful (docked and safe).
+    pub success: u64,
+    /// Their fraction (null for an empty cell).
+    pub success_rate: Option<f64>,
+    /// Its 95 % Wilson interval (null for an empty cell).
+    pub success_ci95: Option<Interval>,
     /// Of which docked at the first attempt.
     pub first_attempt_docked: u64,
-    /// Runs in the cell ending in an unsafe state (module doc).
-    pub unsafe_end_states: u64,
+    /// Runs in the cell with a hazard.
+    pub unsafe_runs: u64,
+}
+
+/// A proportion and its interval, none when nothing was counted.
+fn rate(k: u64, n: u64) -> (Option<f64>, Option<Interval>) {
+    if n == 0 {
+        (None, None)
+    } else {
+        (Some(k as f64 / n as f64), Some(wilson(k, n)))
+    }
 }
 
 /// The edges of the gain schedule's grid, true airspeed (m/s) and altitude (m), from the
@@ -889,11 +987,11 @@ fn condition_table(records: &[RunRecord]) -> (Vec<ConditionCell>, u64) {
                 airspeed_mps: [v[0], v[1]],
                 altitude_m: [h[0], h[1]],
                 runs: 0,
-                docked: 0,
-                success_rate: 0.0,
-                success_ci95: wilson(0, 0),
+                success: 0,
+                success_rate: None,
+                success_ci95: None,
                 first_attempt_docked: 0,
-                unsafe_end_states: 0,
+                unsafe_runs: 0,
             })
         })
         .collect();
@@ -904,20 +1002,15 @@ fn condition_table(records: &[RunRecord]) -> (Vec<ConditionCell>, u64) {
         match cell {
             Some(c) => {
                 c.runs += 1;
-                c.docked += u64::from(r.docked);
+                c.success += u64::from(r.success);
                 c.first_attempt_docked += u64::from(r.first_attempt_docked);
-                c.unsafe_end_states += u64::from(r.unsafe_end);
+                c.unsafe_runs += u64::from(!r.safe);
             }
             None => outside += 1,
         }
     }
     for c in &mut cells {
-        c.success_rate = if c.runs > 0 {
-            c.docked as f64 / c.runs as f64
-        } else {
-            0.0
-        };
-        c.success_ci95 = wilson(c.docked, c.runs);
+        (c.success_rate, c.success_ci95) = rate(c.success, c.runs);
     }
     (cells, outside)
 }
@@ -956,15 +1049,16 @@ fn turbulence_bins(records: &[RunRecord], d: &DispersionSection) -> Vec<Turbulen
                 .collect();
             let (n, k) = (
                 inside.len() as u64,
-                inside.iter().filter(|r| r.docked).count() as u64,
+                inside.iter().filter(|r| r.success).count() as u64,
             );
+            let (success_rate, success_ci95) = rate(k, n);
             TurbulenceBin {
                 sigma_lo_mps: edge(b),
                 sigma_hi_mps: edge(b + 1),
                 runs: n,
-                docked: k,
-                success_rate: if n > 0 { k as f64 / n as f64 } else { 0.0 },
-                success_ci95: wilson(k, n),
+                success: k,
+                success_rate,
+                success_ci95,
             }
         })
         .collect()
@@ -974,24 +1068,32 @@ fn turbulence_bins(records: &[RunRecord], d: &DispersionSection) -> Vec<Turbulen
 fn definitions() -> BTreeMap<String, String> {
     [
         (
+            "docked",
+            "the referee (truth only, never the controller's modes): the probe tip crossed the drogue plane inside the capture radius (0.3 m), closing inside 0.5..2.6 m/s and sliding across the drogue's axis no faster than 1 m/s, whatever the controller was doing; the coupling latched",
+        ),
+        (
             "success",
-            "the run docked within its sortie: at a crossing of the drogue plane while the controller was pushing (not in a missed approach or a breakaway) the probe tip was inside the capture radius (0.3 m) and the closing speed inside 0.5..2.6 m/s",
+            "docked and safe: no hazard of any kind in the run",
         ),
         (
             "first_attempt_docked",
             "the run docked at its first attempt (the paper's procedure has only one)",
         ),
         (
-            "unsafe_end_states",
-            "the probe tip struck: it crossed the drogue plane while the controller was pushing (before any missed approach or breakaway of that attempt) outside the capture radius or the closing band; or it crossed the plane (at any time) faster than 2.6 m/s within one canopy diameter (0.61 m) of the drogue centre",
+            "hazards",
+            "basket_strike: the probe tip crossed the drogue plane (either way) without latching within the canopy's radius plus the probe head's (0.355 m); hard_contact: into the coupling (inside the capture radius) outside the closing band or faster across than 1 m/s; drogue_on_airframe: the canopy's rim or the coupling within 0.15 m of the radome or the cockpit canopy; hose_contact: the hose within 0.1 m of the probe, radome or cockpit canopy (its last 0.6 m, in the drogue assembly, excepted); tanker_proximity: the airframe within 8 m of the hose exit; upset: bank beyond 45 deg, pitch beyond -10..25 deg, angle of attack beyond -5..20 deg or load factor beyond 0..2 g within 30 m of the drogue (referee_limits holds every figure; docs/models.md, \"The referee\", their sources)",
         ),
         (
-            "crossed_after_breakaway",
-            "the probe tip crossed the drogue plane after the controller had stopped pushing (a missed approach or a breakaway; counted as unsafe only when faster than 2.6 m/s within 0.61 m of the drogue centre)",
+            "unsafe_upper95",
+            "exact one-sided 95 % upper confidence bound (Clopper-Pearson) on the fraction; with no events, 1 - 0.05^(1/n), about 3/n",
+        ),
+        (
+            "observation",
+            "a run goes on 15 s after the controller breaks away, the controller still flying its breakaway, and the referee watches all of it",
         ),
         (
             "success_by_condition",
-            "runs per cell of the gain schedule's grid of true airspeed by altitude (the run's true condition); a run on an inner grid line is in the cell below it on that axis (lower speed, lower altitude), as the controller's schedule interpolates; runs outside the grid are counted in outside_condition_grid",
+            "runs per cell of the gain schedule's grid of true airspeed by altitude (the run's true condition); a run on an inner grid line is in the cell below it on that axis (lower speed, lower altitude), as the controller's schedule interpolates; runs outside the grid are counted in outside_condition_grid; an empty cell's rate is null",
         ),
         (
             "ci95",
@@ -999,12 +1101,22 @@ fn definitions() -> BTreeMap<String, String> {
         ),
         (
             "percentiles",
-            "linear between order statistics (Hyndman-Fan type 7), over the runs that reached the drogue plane before any breakaway",
+            "linear between order statistics (Hyndman-Fan type 7); miss and closing speed over the runs with a decisive crossing (the docking, or the first miss while the controller pushed), lateral speed over the dockings",
         ),
     ]
     .into_iter()
     .map(|(k, v)| (k.to_string(), v.to_string()))
     .collect()
+}
+
+/// The names of the crossing verdicts in files.
+fn verdict_name(v: CrossingVerdict) -> &'static str {
+    match v {
+        CrossingVerdict::Docked => "docked",
+        CrossingVerdict::HardContact => "hard_contact",
+        CrossingVerdict::BasketStrike => "basket_strike",
+        CrossingVerdict::FlyBy => "fly_by",
+    }
 }
 
 /// Summarises `records` (in index order) of the campaign `meta`.
@@ -1016,12 +1128,36 @@ pub fn summarise(
     let n = records.len() as u64;
     let count = |f: &dyn Fn(&RunRecord) -> bool| records.iter().filter(|r| f(r)).count() as u64;
     let docked = count(&|r| r.docked);
+    let success = count(&|r| r.success);
     let first = count(&|r| r.first_attempt_docked);
-    let unsafe_n = count(&|r| r.unsafe_end);
+    let unsafe_n = count(&|r| !r.safe);
     let mut outcomes = BTreeMap::new();
     let mut causes = BTreeMap::new();
     let mut attempts = BTreeMap::new();
     let mut ends = BTreeMap::new();
+    let mut hazards: BTreeMap<String, HazardCount> = HazardKind::ALL
+        .iter()
+        .map(|k| {
+            (
+                k.name().to_string(),
+                HazardCount {
+                    runs: 0,
+                    events: 0,
+                    runs_upper95: 0.0,
+                },
+            )
+        })
+        .collect();
+    let mut crossings: BTreeMap<String, u64> = [
+        CrossingVerdict::Docked,
+        CrossingVerdict::HardContact,
+        CrossingVerdict::BasketStrike,
+        CrossingVerdict::FlyBy,
+    ]
+    .into_iter()
+    .map(|v| (verdict_name(v).to_string(), 0))
+    .collect();
+    let mut backing_off = 0;
     for r in records {
         *outcomes.entry(r.outcome.name().to_string()).or_insert(0) += 1;
         if let Some(c) = &r.failure {
@@ -1031,61 +1167,97 @@ pub fn summarise(
         for e in &r.attempt_ends {
             *ends.entry(e.clone()).or_insert(0) += 1;
         }
+        for c in &r.crossings {
+            *crossings
+                .entry(verdict_name(c.verdict).to_string())
+                .or_insert(0) += 1;
+            backing_off += u64::from(
+                c.verdict == CrossingVerdict::Docked
+                    && matches!(c.mode.as_str(), "MissedApproach" | "Breakaway"),
+            );
+        }
+        for k in HazardKind::ALL {
+            let events = r.hazards.iter().filter(|h| h.kind == k).count() as u64;
+            if let Some(h) = hazards.get_mut(k.name()) {
+                h.events += events;
+                h.runs += u64::from(events > 0);
+            }
+        }
+    }
+    for h in hazards.values_mut() {
+        h.runs_upper95 = upper95(h.runs, n);
     }
     let (cells, outside) = condition_table(records);
+    let fraction = |k: u64| if n > 0 { k as f64 / n as f64 } else { 0.0 };
     CampaignSummary {
         scenario: meta.scenario.clone(),
+        first_run: meta.first_run,
         campaign_runs: meta.runs,
         shard: meta.shard.clone(),
         runs: n,
         docked,
-        success_rate: if n > 0 { docked as f64 / n as f64 } else { 0.0 },
-        success_ci95: wilson(docked, n),
+        docked_rate: fraction(docked),
+        docked_ci95: wilson(docked, n),
+        success,
+        success_rate: fraction(success),
+        success_ci95: wilson(success, n),
         first_attempt_docked: first,
         first_attempt_ci95: wilson(first, n),
         attempts_histogram: attempts,
         attempt_ends: ends,
-        unsafe_end_states: unsafe_n,
-        unsafe_ci95: wilson(unsafe_n, n),
-        crossed_after_breakaway: count(&|r| r.crossed_after_breakaway.is_some()),
+        unsafe_runs: unsafe_n,
+        unsafe_upper95: upper95(unsafe_n, n),
+        hazards,
+        crossings,
+        docked_while_backing_off: backing_off,
         outcomes,
         failure_causes: causes,
         miss_m: Percentiles::of(records.iter().filter_map(|r| r.miss_m)),
         closure_mps: Percentiles::of(records.iter().filter_map(|r| r.closure_mps)),
+        lateral_mps: Percentiles::of(records.iter().filter_map(|r| r.lateral_mps)),
         success_by_turbulence: turbulence_bins(records, dispersion),
         success_by_condition: cells,
         outside_condition_grid: outside,
         dispersion: dispersion.clone(),
+        referee_limits: Limits::default(),
         definitions: definitions(),
     }
 }
 
-/// A class of runs in a scatter plot: label, colour, points.
+/// A class of points in a scatter plot: label, colour, points.
 type Group<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
 
-/// Where the probe crossed the drogue plane, from behind, with the capture circle.
+/// A circle of `radius` about the origin, as a polyline.
+fn circle(radius: f64) -> impl Iterator<Item = (f64, f64)> {
+    (0..=120).map(move |i| {
+        let a = f64::from(i) * std::f64::consts::TAU / 120.0;
+        (radius * a.cos(), radius * a.sin())
+    })
+}
+
+/// Every crossing of the drogue plane, from behind, one marker per crossing and a shape per
+/// verdict, with the capture and strike circles.
 fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), OutputError> {
-    let mut groups: [Group<'_>; 3] = [
+    let mut groups: [Group<'_>; 4] = [
         ("docked", PALETTE[2], Vec::new()),
-        ("unsafe", PALETTE[1], Vec::new()),
-        ("missed, safe (slow)", PALETTE[4], Vec::new()),
+        ("hard contact", PALETTE[1], Vec::new()),
+        ("basket strike", PALETTE[3], Vec::new()),
+        ("fly-by, clear of the canopy", PALETTE[0], Vec::new()),
     ];
-    for r in records {
-        if let Some([x, y]) = r.plane_offset_m {
-            let g = if r.docked {
-                0
-            } else if r.unsafe_end {
-                1
-            } else {
-                2
-            };
-            groups[g].2.push((x, y));
-        }
+    for c in records.iter().flat_map(|r| &r.crossings) {
+        let g = match c.verdict {
+            CrossingVerdict::Docked => 0,
+            CrossingVerdict::HardContact => 1,
+            CrossingVerdict::BasketStrike => 2,
+            CrossingVerdict::FlyBy => 3,
+        };
+        groups[g].2.push((c.offset_m[0], c.offset_m[1]));
     }
+    let limits = Limits::default();
     let reach = groups
         .iter()
         .flat_map(|g| g.2.iter())
-        .fold(CAPTURE_RADIUS_M * 1.5, |m, p| {
+        .fold(limits.strike_radius_m() * 1.5, |m, p| {
             m.max(p.0.abs()).max(p.1.abs())
         })
         * 1.05;
@@ -1104,23 +1276,52 @@ fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), O
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(dbg)?;
-        let circle = (0..=120).map(|i| {
-            let a = f64::from(i) * std::f64::consts::TAU / 120.0;
-            (CAPTURE_RADIUS_M * a.cos(), CAPTURE_RADIUS_M * a.sin())
-        });
-        chart
-            .draw_series(LineSeries::new(circle, BLACK.stroke_width(2)))
-            .map_err(dbg)?
-            .label("capture radius 0.3 m")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
-        for (name, color, pts) in &groups {
-            let c = *color;
+        for (radius, what, style) in [
+            (
+                limits.capture_radius_m,
+                "capture radius",
+                BLACK.stroke_width(2),
+            ),
+            (
+                limits.strike_radius_m(),
+                "canopy + probe head (strike)",
+                PALETTE[3].stroke_width(1),
+            ),
+        ] {
             chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                .draw_series(LineSeries::new(circle(radius), style))
                 .map_err(dbg)?
-                .label(format!("{name} ({})", pts.len()))
-                .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+                .label(format!("{what} {radius:.3} m"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
         }
+        let [docked, hard, strike, by] = &groups;
+        let label = |g: &Group<'_>| format!("{} ({})", g.0, g.2.len());
+        let (c0, c1, c2, c3) = (docked.1, hard.1, strike.1, by.1);
+        chart
+            .draw_series(docked.2.iter().map(|&p| Circle::new(p, 3, c0.filled())))
+            .map_err(dbg)?
+            .label(label(docked))
+            .legend(move |(x, y)| Circle::new((x + 9, y), 4, c0.filled()));
+        chart
+            .draw_series(by.2.iter().map(|&p| Circle::new(p, 4, c3.stroke_width(1))))
+            .map_err(dbg)?
+            .label(label(by))
+            .legend(move |(x, y)| Circle::new((x + 9, y), 4, c3.stroke_width(1)));
+        chart
+            .draw_series(hard.2.iter().map(|&p| Cross::new(p, 5, c1.stroke_width(2))))
+            .map_err(dbg)?
+            .label(label(hard))
+            .legend(move |(x, y)| Cross::new((x + 9, y), 5, c1.stroke_width(2)));
+        chart
+            .draw_series(
+                strike
+                    .2
+                    .iter()
+                    .map(|&p| TriangleMarker::new(p, 6, c2.filled())),
+            )
+            .map_err(dbg)?
+            .label(label(strike))
+            .legend(move |(x, y)| TriangleMarker::new((x + 9, y), 6, c2.filled()));
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperLeft)
@@ -1129,6 +1330,94 @@ fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), O
             .border_style(BLACK)
             .draw()
             .map_err(dbg)
+    })
+}
+
+/// A panel of the hazards plot: the vertical axis's label, the coordinate it shows (of a
+/// tanker-frame point), the value it is centred on.
+type View<'a> = (&'a str, fn(&[f64; 3]) -> f64, f64);
+
+/// Where every hazard happened: top view (forward, right) and side view (forward, up) in the
+/// tanker frame, the hose exit at the origin and the drogue's nominal trail marked, a colour
+/// per kind.
+fn hazards_plot(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), OutputError> {
+    let kinds = HazardKind::ALL;
+    let colours = [
+        PALETTE[3], PALETTE[1], PALETTE[4], PALETTE[0], PALETTE[5], PALETTE[2],
+    ];
+    let points: Vec<(usize, [f64; 3])> = records
+        .iter()
+        .flat_map(|r| &r.hazards)
+        .filter_map(|h| {
+            kinds
+                .iter()
+                .position(|k| *k == h.kind)
+                .map(|i| (i, h.position_tanker_m))
+        })
+        .collect();
+    let trail = crate::world::drogue::NOMINAL_DROGUE_TANKER_M;
+    let (mut x0, mut x1) = (trail[0] - 20.0, 2.0_f64);
+    let mut half = 6.0_f64;
+    for (_, p) in &points {
+        x0 = x0.min(p[0] - 1.0);
+        x1 = x1.max(p[0] + 1.0);
+        half = half
+            .max(p[1].abs() + 1.0)
+            .max((p[2] - trail[2]).abs() + 1.0);
+    }
+    plot::figure(path, (1400, 700), |root| {
+        let root = root.titled(title, ("sans-serif", 20)).map_err(dbg)?;
+        let panels = root.split_evenly((1, 2));
+        let views: [View<'_>; 2] = [
+            ("right of the hose exit, m (top view)", |p| p[1], 0.0),
+            ("above the hose exit, m (side view)", |p| -p[2], -trail[2]),
+        ];
+        for (panel, (y_desc, vertical, centre)) in panels.iter().zip(views) {
+            let mut chart = ChartBuilder::on(panel)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, (centre - half)..(centre + half))
+                .map_err(dbg)?;
+            chart
+                .configure_mesh()
+                .x_desc("forward of the hose exit, m")
+                .y_desc(y_desc)
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(dbg)?;
+            let landmarks = [("hose exit", [0.0, 0.0, 0.0]), ("drogue trail", trail)];
+            chart
+                .draw_series(landmarks.iter().map(|(name, p)| {
+                    EmptyElement::at((p[0], vertical(p)))
+                        + Cross::new((0, 0), 6, BLACK.stroke_width(2))
+                        + Text::new(name.to_string(), (8, -8), ("sans-serif", 13))
+                }))
+                .map_err(dbg)?;
+            for (i, kind) in kinds.iter().enumerate() {
+                let c = colours[i];
+                let pts: Vec<(f64, f64)> = points
+                    .iter()
+                    .filter(|(k, _)| *k == i)
+                    .map(|(_, p)| (p[0], vertical(p)))
+                    .collect();
+                let n = pts.len();
+                chart
+                    .draw_series(pts.into_iter().map(|p| Circle::new(p, 4, c.filled())))
+                    .map_err(dbg)?
+                    .label(format!("{} ({n})", kind.name()))
+                    .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .label_font(("sans-serif", 13))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(dbg)?;
+        }
+        Ok(())
     })
 }
 
@@ -1145,7 +1434,7 @@ fn success_plot(path: &Path, title: &str, bins: &[TurbulenceBin]) -> Result<(), 
     };
     let y0 = used
         .iter()
-        .map(|b| b.success_ci95.lower)
+        .filter_map(|b| b.success_ci95.map(|c| c.lower))
         .fold(1.0_f64, f64::min);
     let y0 = ((y0 - 0.02) * 20.0).floor() / 20.0;
     plot::figure(path, (1000, 650), |root| {
@@ -1159,36 +1448,44 @@ fn success_plot(path: &Path, title: &str, bins: &[TurbulenceBin]) -> Result<(), 
         chart
             .configure_mesh()
             .x_desc("turbulence intensity (RMS gust speed), m/s")
-            .y_desc("success rate (95 % Wilson interval)")
+            .y_desc("success rate, docked and safe (95 % Wilson interval)")
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(dbg)?;
         let mid = |b: &TurbulenceBin| 0.5 * (b.sigma_lo_mps + b.sigma_hi_mps);
+        // The bins with runs, each with its rate and interval.
+        let shown: Vec<(f64, f64, Interval, String)> = used
+            .iter()
+            .filter_map(|b| {
+                Some((
+                    mid(b),
+                    b.success_rate?,
+                    b.success_ci95?,
+                    format!("{}/{}", b.success, b.runs),
+                ))
+            })
+            .collect();
         chart
-            .draw_series(used.iter().map(|b| {
+            .draw_series(shown.iter().map(|(x, _, ci, _)| {
                 PathElement::new(
-                    vec![
-                        (mid(b), b.success_ci95.lower),
-                        (mid(b), b.success_ci95.upper),
-                    ],
+                    vec![(*x, ci.lower), (*x, ci.upper)],
                     PALETTE[0].stroke_width(2),
                 )
             }))
             .map_err(dbg)?;
         chart
             .draw_series(
-                used.iter()
-                    .map(|b| Circle::new((mid(b), b.success_rate), 5, PALETTE[0].filled())),
+                shown
+                    .iter()
+                    .map(|(x, r, _, _)| Circle::new((*x, *r), 5, PALETTE[0].filled())),
             )
             .map_err(dbg)?;
         chart
-            .draw_series(used.iter().map(|b| {
-                Text::new(
-                    format!("{}/{}", b.docked, b.runs),
-                    (mid(b), b.success_ci95.lower),
-                    ("sans-serif", 13),
-                )
-            }))
+            .draw_series(
+                shown
+                    .iter()
+                    .map(|(x, _, ci, t)| Text::new(t.clone(), (*x, ci.lower), ("sans-serif", 13))),
+            )
             .map_err(dbg)?;
         Ok(())
     })
@@ -1261,8 +1558,8 @@ fn condition_plot(
             .map_err(dbg)?;
         chart
             .draw_series(cells.iter().map(|c| {
-                let fill = if c.runs > 0 {
-                    success_colour(c.success_rate)
+                let fill = if let Some(rate) = c.success_rate {
+                    success_colour(rate)
                 } else {
                     RGBColor(225, 225, 225)
                 };
@@ -1291,13 +1588,13 @@ fn condition_plot(
                 0.5 * (c.airspeed_mps[0] + c.airspeed_mps[1]),
                 0.5 * (c.altitude_m[0] + c.altitude_m[1]),
             );
-            let lines = if c.runs > 0 {
+            let lines = if let Some(rate) = c.success_rate {
                 let mut l = vec![
-                    format!("{:.1} %", 100.0 * c.success_rate),
-                    format!("{}/{} runs", c.docked, c.runs),
+                    format!("{:.1} %", 100.0 * rate),
+                    format!("{}/{} runs", c.success, c.runs),
                 ];
-                if c.unsafe_end_states > 0 {
-                    l.push(format!("unsafe {}", c.unsafe_end_states));
+                if c.unsafe_runs > 0 {
+                    l.push(format!("unsafe {}", c.unsafe_runs));
                 }
                 l
             } else {
@@ -1398,7 +1695,15 @@ pub fn write_campaign(
     miss_scatter(
         &dir.join("miss_scatter.png"),
         &format!(
-            "{}: probe tip at the drogue plane, {} runs{part}",
+            "{}: every crossing of the drogue plane, {} runs{part}",
+            meta.scenario, summary.runs
+        ),
+        &records,
+    )?;
+    hazards_plot(
+        &dir.join("hazards.png"),
+        &format!(
+            "{}: where the referee's hazards were, {} runs{part}",
             meta.scenario, summary.runs
         ),
         &records,
@@ -1465,6 +1770,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<CampaignSummary, McError> {
                     "scenario"
                 } else if first.runs != whole.runs {
                     "campaign size"
+                } else if first.first_run != whole.first_run {
+                    "first run"
                 } else {
                     "simulator version"
                 };
@@ -1491,13 +1798,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<CampaignSummary, McError> {
         }
     }
     let meta = meta.ok_or_else(|| McError::Merge("no directories given".into()))?;
-    if let Some(&i) = all.keys().find(|&&i| i >= meta.runs) {
+    let range = meta.run_range();
+    if let Some(&i) = all.keys().find(|&&i| !range.contains(&i)) {
         return Err(McError::Merge(format!(
-            "run {i} is outside the campaign of {} runs",
-            meta.runs
+            "run {i} is outside the campaign of runs {}..{}",
+            range.start, range.end
         )));
     }
-    let missing: Vec<u64> = (0..meta.runs).filter(|i| !all.contains_key(i)).collect();
+    let missing: Vec<u64> = range.filter(|i| !all.contains_key(i)).collect();
     if !missing.is_empty() {
         let first: Vec<String> = missing.iter().take(10).map(u64::to_string).collect();
         return Err(McError::Merge(format!(
@@ -1513,19 +1821,37 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<CampaignSummary, McError> {
 
 /// One line for the terminal.
 pub fn one_line(s: &CampaignSummary) -> String {
-    let pct = |v: f64| format!("{:.1} %", 100.0 * v);
+    let pct = |v: f64| format!("{:.2} %", 100.0 * v);
+    let hazards: Vec<String> = s
+        .hazards
+        .iter()
+        .filter(|(_, h)| h.runs > 0)
+        .map(|(k, h)| format!("{k} {}", h.runs))
+        .collect();
     format!(
-        "{}: {} runs{}, docked {} ({}, 95 % CI {}..{}), unsafe end states {}, miss p50/p95/max {}",
+        "{}: {} runs{}{}, success {} ({}, 95 % CI {}..{}), docked {}, unsafe {} (95 % upper bound {}){}, miss p50/p95/max {}",
         s.scenario,
         s.runs,
+        if s.first_run > 0 {
+            format!(" from run {}", s.first_run)
+        } else {
+            String::new()
+        },
         s.shard
             .as_ref()
             .map_or(String::new(), |k| format!(" (shard {k})")),
-        s.docked,
+        s.success,
         pct(s.success_rate),
         pct(s.success_ci95.lower),
         pct(s.success_ci95.upper),
-        s.unsafe_end_states,
+        s.docked,
+        s.unsafe_runs,
+        pct(s.unsafe_upper95),
+        if hazards.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", hazards.join(", "))
+        },
         s.miss_m.map_or("-".into(), |m| format!(
             "{:.3}/{:.3}/{:.3} m",
             m.p50, m.p95, m.max
@@ -1589,12 +1915,50 @@ mod tests {
             let e = bad.parse::<Shard>().unwrap_err();
             assert!(e.contains("K/M"), "{e}");
         }
-        let mut all: Vec<u64> = (1..=3)
-            .flat_map(|k| indices(10, Some(Shard { k, m: 3 })))
-            .collect();
-        all.sort_unstable();
-        assert_eq!(all, indices(10, None));
-        assert_eq!(indices(2, Some(Shard { k: 3, m: 3 })), Vec::<u64>::new());
+        for first in [0, 1_000_000] {
+            let mut all: Vec<u64> = (1..=3)
+                .flat_map(|k| indices(first, 10, Some(Shard { k, m: 3 })))
+                .collect();
+            all.sort_unstable();
+            assert_eq!(all, indices(first, 10, None));
+            assert_eq!(all, (first..first + 10).collect::<Vec<_>>());
+        }
+        assert_eq!(indices(0, 2, Some(Shard { k: 3, m: 3 })), Vec::<u64>::new());
+        assert_eq!(indices(7, 5, Some(Shard { k: 2, m: 2 })), vec![8, 10]);
+    }
+
+    #[test]
+    fn the_upper_bound_matches_published_clopper_pearson_values() {
+        // No events: 1 - 0.05^(1/n), about 3/n.
+        assert!(
+            (upper95(0, 10_000) - 2.9953e-4).abs() < 1e-8,
+            "{}",
+            upper95(0, 10_000)
+        );
+        assert!((upper95(0, 10) - 0.2589).abs() < 1e-4);
+        // One-sided 95 % exact bounds, the beta quantile Beta(0.95; k + 1, n - k), computed
+        // independently by bisection on exact binomial sums in Python's integers:
+        // 1 of 10 -> 0.39416, 5 of 100 -> 0.10225, 12 of 1000 -> 0.019370.
+        assert!(
+            (upper95(1, 10) - 0.39416).abs() < 1e-5,
+            "{}",
+            upper95(1, 10)
+        );
+        assert!(
+            (upper95(5, 100) - 0.10225).abs() < 1e-5,
+            "{}",
+            upper95(5, 100)
+        );
+        assert!(
+            (upper95(12, 1000) - 0.019370).abs() < 1e-5,
+            "{}",
+            upper95(12, 1000)
+        );
+        assert_eq!(upper95(3, 3), 1.0);
+        assert_eq!(upper95(0, 0), 1.0);
+        // It grows with the count and falls with the trials.
+        assert!(upper95(2, 1000) > upper95(1, 1000));
+        assert!(upper95(1, 2000) < upper95(1, 1000));
     }
 
     /// A batch system's environment as `shard_from_env` reads it.

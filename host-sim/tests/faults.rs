@@ -15,7 +15,6 @@
 //! estimator instead).
 //!
 
-use host_sim::montecarlo::is_unsafe;
 use host_sim::scenario::{CameraPlacement, NavModel, ScenarioFile};
 use host_sim::sim::{Outcome, Run, run, run_with_faults};
 use host_sim::world::faults::{Actuator, FaultKind, SimFault};
@@ -82,19 +81,24 @@ fn breakaway_at(run: &Run) -> Option<f64> {
         .map(|s| s.time_s)
 }
 
+/// Docked, and the referee saw no hazard.
 fn assert_docked(f: &Flown, what: &str) {
     let s = &f.run.summary;
     assert_eq!(s.outcome, Outcome::Docked, "{what}: {s:?}");
-    assert!(!is_unsafe(&f.run), "{what}");
+    assert!(f.run.verdict.success(), "{what}: {:?}", f.run.verdict);
 }
 
-/// Broke away for `reason` without an unsafe end (in particular before reaching the plane
-/// outside the capture radius).
+/// Broke away for `reason`, and the referee saw no hazard in the 15 s it watched the
+/// breakaway (in particular no crossing of the plane through the basket).
 fn assert_broke_away(f: &Flown, reason: &str, what: &str) {
     let s = &f.run.summary;
     assert_eq!(s.outcome, Outcome::Aborted, "{what}: {s:?}");
     assert_eq!(s.breakaway_reason.as_deref(), Some(reason), "{what}: {s:?}");
-    assert!(!is_unsafe(&f.run), "{what}: {s:?} {:?}", f.run.contact);
+    assert!(
+        f.run.verdict.safe(),
+        "{what}: {s:?} {:?}",
+        f.run.verdict.hazards
+    );
 }
 
 fn steps(n: u32) -> f64 {

@@ -9,15 +9,17 @@ use host_sim::montecarlo::{
     self, CampaignMeta, CampaignSummary, RunOutcome, RunRecord, Shard, indices, run_campaign,
     write_campaign,
 };
+use host_sim::referee::{CrossingVerdict, HazardKind};
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{self, Outcome};
 use ibvs_core::Controller;
 
-const FILES: [&str; 6] = [
+const FILES: [&str; 7] = [
     "runs.jsonl",
     "campaign.json",
     "summary.json",
     "miss_scatter.png",
+    "hazards.png",
     "success_vs_turbulence.png",
     "success_vs_condition.png",
 ];
@@ -29,8 +31,21 @@ fn temp(name: &str) -> PathBuf {
 }
 
 fn campaign(f: &ScenarioFile, runs: u64, shard: Option<Shard>, jobs: usize, dir: &Path) {
-    let lines = run_campaign(f, &indices(runs, shard), Some(jobs)).expect("campaign runs");
-    write_campaign(dir, &CampaignMeta::new(f, runs, shard), &lines).expect("written");
+    campaign_from(f, 0, runs, shard, jobs, dir);
+}
+
+/// The campaign of runs `first..first + runs` (`shard` of it) written to `dir`.
+fn campaign_from(
+    f: &ScenarioFile,
+    first: u64,
+    runs: u64,
+    shard: Option<Shard>,
+    jobs: usize,
+    dir: &Path,
+) {
+    let lines = run_campaign(f, &indices(first, runs, shard), Some(jobs)).expect("campaign runs");
+    let meta = CampaignMeta::new(f, runs, shard).from_run(first);
+    write_campaign(dir, &meta, &lines).expect("written");
 }
 
 fn records(dir: &Path) -> Vec<RunRecord> {
@@ -100,7 +115,9 @@ fn shards_merge_into_exactly_the_one_machine_campaign() {
         .expect("runs");
         assert_eq!(r.seed, file.seed);
         assert_eq!(r.miss_m, run.summary.miss_m);
+        assert_eq!(r.docked, run.verdict.docked());
         assert_eq!(r.docked, run.summary.outcome == Outcome::Docked);
+        assert_eq!(r.hazards, run.verdict.hazards);
     }
     // Incomplete or foreign shards are refused, naming the problem.
     let e = montecarlo::merge(&shards[..2], &temp("partial"))
@@ -134,29 +151,55 @@ fn the_summary_counts_every_run_once_and_states_its_intervals() {
     campaign(&f, 8, None, 2, &dir);
     let (s, recs) = (summary(&dir), records(&dir));
     assert_eq!((s.runs, s.campaign_runs, s.shard.as_deref()), (8, 8, None));
-    assert_eq!(s.docked, recs.iter().filter(|r| r.docked).count() as u64);
+    let count = |f: &dyn Fn(&RunRecord) -> bool| recs.iter().filter(|r| f(r)).count() as u64;
+    assert_eq!(s.docked, count(&|r| r.docked));
+    assert_eq!(s.success, count(&|r| r.docked && r.hazards.is_empty()));
+    assert_eq!(s.unsafe_runs, count(&|r| !r.hazards.is_empty()));
     assert_eq!(s.outcomes.values().sum::<u64>(), 8);
     assert_eq!(s.failure_causes.values().sum::<u64>(), 8 - s.docked);
     assert!(s.success_ci95.lower <= s.success_rate && s.success_rate <= s.success_ci95.upper);
     assert_eq!(
         s.success_ci95,
-        montecarlo::wilson(s.docked, s.runs),
+        montecarlo::wilson(s.success, s.runs),
         "Wilson 95 %"
     );
-    assert_eq!(
-        s.unsafe_end_states,
-        recs.iter().filter(|r| r.unsafe_end).count() as u64
-    );
+    assert_eq!(s.docked_ci95, montecarlo::wilson(s.docked, s.runs));
+    assert_eq!(s.unsafe_upper95, montecarlo::upper95(s.unsafe_runs, s.runs));
+    // Every hazard kind is listed, and the counts are the records'.
+    assert_eq!(s.hazards.len(), HazardKind::ALL.len());
+    for k in HazardKind::ALL {
+        let h = s.hazards[k.name()];
+        assert_eq!(h.runs, count(&|r| r.hazards.iter().any(|x| x.kind == k)));
+        assert_eq!(h.runs_upper95, montecarlo::upper95(h.runs, s.runs));
+    }
+    // Every crossing is counted once, under its verdict.
+    let crossings: u64 = recs.iter().map(|r| r.crossings.len() as u64).sum();
+    assert_eq!(s.crossings.values().sum::<u64>(), crossings);
     let m = s.miss_m.expect("some runs reach the plane");
     assert!(m.min <= m.p5 && m.p5 <= m.p50 && m.p50 <= m.p95 && m.p95 <= m.p99 && m.p99 <= m.max);
     assert_eq!(m.count, recs.iter().filter(|r| r.miss_m.is_some()).count());
     for r in &recs {
         assert_eq!(r.docked, r.outcome == RunOutcome::Docked);
         assert_eq!(r.failure.is_none(), r.docked);
-        if let (Some(miss), Some([x, y])) = (r.miss_m, r.plane_offset_m) {
+        assert_eq!(r.success, r.docked && r.safe);
+        assert_eq!(r.safe, r.hazards.is_empty());
+        for c in &r.crossings {
             assert!(
-                (x.hypot(y) - miss).abs() < 1e-9,
-                "the offset's length is the miss"
+                (c.offset_m[0].hypot(c.offset_m[1]) - c.miss_m).abs() < 1e-9,
+                "the offset's length is the miss: {c:?}"
+            );
+        }
+        // The docking is the one crossing judged docked, and the last crossing.
+        let docked: Vec<_> = r
+            .crossings
+            .iter()
+            .filter(|c| c.verdict == CrossingVerdict::Docked)
+            .collect();
+        assert_eq!(docked.len(), usize::from(r.docked), "{r:?}");
+        if r.docked {
+            assert_eq!(
+                r.crossings.last().map(|c| c.verdict),
+                Some(CrossingVerdict::Docked)
             );
         }
     }
@@ -166,10 +209,95 @@ fn the_summary_counts_every_run_once_and_states_its_intervals() {
         (bins[0].sigma_lo_mps, bins[bins.len() - 1].sigma_hi_mps),
         (0.56, 0.84)
     );
-    for png in ["miss_scatter.png", "success_vs_turbulence.png"] {
+    for png in [
+        "miss_scatter.png",
+        "hazards.png",
+        "success_vs_turbulence.png",
+    ] {
         let bytes = std::fs::read(dir.join(png)).expect("plot written");
         assert_eq!(&bytes[1..4], b"PNG", "{png}");
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A campaign from another first run flies other runs (its own seeds and dispersions), and its
+/// shards still merge into exactly the one-machine output; a shard of the same scenario and
+/// size from another first run is refused.
+#[test]
+fn a_first_run_offset_flies_other_runs_and_its_shards_merge_exactly() {
+    let f = ScenarioFile::load("paper-level1").expect("preset");
+    let (first, runs) = (1_000_000, 4);
+    let root = temp("offset");
+    let (zero, whole) = (root.join("zero"), root.join("whole"));
+    campaign_from(&f, 0, runs, None, 2, &zero);
+    campaign_from(&f, first, runs, None, 2, &whole);
+    let (a, b) = (records(&zero), records(&whole));
+    assert_eq!(
+        b.iter().map(|r| r.index).collect::<Vec<_>>(),
+        (first..first + runs).collect::<Vec<_>>()
+    );
+    for (x, y) in a.iter().zip(&b) {
+        assert_ne!(x.seed, y.seed, "run {} and run {}", x.index, y.index);
+        assert_ne!(x.inputs, y.inputs);
+    }
+    assert_eq!(summary(&whole).first_run, first);
+    let shards: Vec<PathBuf> = (1..=2)
+        .map(|k| {
+            let d = root.join(format!("shard{k}"));
+            campaign_from(&f, first, runs, Some(Shard { k, m: 2 }), 1, &d);
+            d
+        })
+        .collect();
+    let merged = root.join("merged");
+    montecarlo::merge(&shards, &merged).expect("merges");
+    for file in FILES {
+        assert!(
+            std::fs::read(whole.join(file)).expect("whole")
+                == std::fs::read(merged.join(file)).expect("merged"),
+            "{file} differs"
+        );
+    }
+    let e = montecarlo::merge(&[shards[0].clone(), zero.clone()], &root.join("mixed"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("first run"), "{e}");
+    std::fs::remove_dir_all(&root).ok();
+}
+
+/// The summary counts the referee's hazards: a hazard added to one docked record makes that
+/// run unsafe and not a success, and is counted under its kind.
+#[test]
+fn the_summary_counts_a_hazard_and_the_run_stops_being_a_success() {
+    let f = ScenarioFile::load("paper-level1").expect("preset");
+    let dir = temp("hazard");
+    campaign(&f, 3, None, 2, &dir);
+    let mut recs = records(&dir);
+    let before = summary(&dir);
+    let k = recs
+        .iter()
+        .position(|r| r.success)
+        .expect("a successful run");
+    recs[k].hazards.push(host_sim::referee::Hazard {
+        kind: HazardKind::HoseContact,
+        time_s: 1.0,
+        position_tanker_m: [-12.0, 0.5, 4.0],
+        speed_mps: 1.0,
+        measure: 0.05,
+        limit: 0.1,
+        what: "hose 0.050 m from the probe".into(),
+    });
+    recs[k].safe = false;
+    recs[k].success = false;
+    let meta = CampaignMeta::new(&f, 3, None);
+    let after = montecarlo::summarise(&meta, &f.dispersion, &recs);
+    assert_eq!(after.unsafe_runs, before.unsafe_runs + 1);
+    assert_eq!(after.success, before.success - 1);
+    assert_eq!(after.docked, before.docked, "still docked");
+    assert_eq!(
+        after.hazards["hose_contact"].runs,
+        before.hazards["hose_contact"].runs + 1
+    );
+    assert!(after.unsafe_upper95 > before.unsafe_upper95);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -241,8 +369,8 @@ fn an_envelope_campaign_counts_every_run_in_one_condition_cell() {
     let sum = |f: &dyn Fn(&montecarlo::ConditionCell) -> u64| cells.iter().map(f).sum::<u64>();
     assert_eq!(sum(&|c| c.runs) + s.outside_condition_grid, s.runs);
     assert_eq!(s.outside_condition_grid, 0, "the envelope is the grid");
-    assert_eq!(sum(&|c| c.docked), s.docked);
-    assert_eq!(sum(&|c| c.unsafe_end_states), s.unsafe_end_states);
+    assert_eq!(sum(&|c| c.success), s.success);
+    assert_eq!(sum(&|c| c.unsafe_runs), s.unsafe_runs);
     assert_eq!(sum(&|c| c.first_attempt_docked), s.first_attempt_docked);
     for (k, c) in cells.iter().enumerate() {
         let (i, j) = (k % (v.len() - 1), k / (v.len() - 1));
@@ -256,14 +384,20 @@ fn an_envelope_campaign_counts_every_run_in_one_condition_cell() {
             })
             .collect();
         assert_eq!(c.runs, inside.len() as u64, "cell {k}");
-        assert_eq!(c.docked, inside.iter().filter(|r| r.docked).count() as u64);
         assert_eq!(
-            c.success_ci95,
-            montecarlo::wilson(c.docked, c.runs),
-            "cell {k}"
+            c.success,
+            inside.iter().filter(|r| r.success).count() as u64
         );
         if c.runs > 0 {
-            assert_eq!(c.success_rate, c.docked as f64 / c.runs as f64);
+            assert_eq!(
+                c.success_ci95,
+                Some(montecarlo::wilson(c.success, c.runs)),
+                "cell {k}"
+            );
+            assert_eq!(c.success_rate, Some(c.success as f64 / c.runs as f64));
+        } else {
+            // An empty cell has no rate: null in summary.json, not 0.
+            assert_eq!((c.success_rate, c.success_ci95), (None, None), "cell {k}");
         }
         // The shards' tables add up to the merged one.
         let of = |d: &PathBuf| summary(d).success_by_condition[k];
@@ -271,10 +405,10 @@ fn an_envelope_campaign_counts_every_run_in_one_condition_cell() {
         assert_eq!(
             (
                 a.runs + b.runs,
-                a.docked + b.docked,
-                a.unsafe_end_states + b.unsafe_end_states
+                a.success + b.success,
+                a.unsafe_runs + b.unsafe_runs
             ),
-            (c.runs, c.docked, c.unsafe_end_states),
+            (c.runs, c.success, c.unsafe_runs),
             "cell {k}"
         );
     }
@@ -328,13 +462,9 @@ fn a_level2_refuelling_campaign_ends_no_sortie_unsafe_and_docks_its_sorties() {
     campaign(&f, 40, None, 2, &dir);
     let s = summary(&dir);
     assert_eq!(s.runs, 40);
-    assert_eq!(
-        s.unsafe_end_states, 0,
-        "a strike or an unsafe end: {:?}",
-        s.failure_causes
-    );
+    assert_eq!(s.unsafe_runs, 0, "a hazard: {:?}", s.hazards);
     assert!(
-        s.docked >= 38,
+        s.success >= 38,
         "{} of 40 docked: {:?}",
         s.docked,
         s.failure_causes

@@ -188,7 +188,7 @@ fn pil_refuses_an_invalid_configuration_by_name_and_keeps_flying_the_old_one() {
 #[test]
 fn a_pil_campaign_equals_the_in_process_campaign_run_for_run() {
     let f = ScenarioFile::load("paper-level1").expect("preset");
-    let idx = montecarlo::indices(50, None);
+    let idx = montecarlo::indices(0, 50, None);
     let elf = firmware_elf().expect("firmware ELF");
     let pil = montecarlo::run_campaign_on(&f, &idx, Some(2), &CampaignComputer::Pil(elf))
         .expect("PIL campaign");
