@@ -13,12 +13,13 @@
 //!   state, recorded reason);
 //! - [`stack`]: the stack's high-water mark (painted at reset).
 //!
-//! The `f405` board adds `flash` (the configuration store's sectors, without the HAL's
-//! panicking read) and `watchdog` (the independent watchdog).
+//! The `f405` board adds `rcc` (the clock start: the crystal measured before the PLL runs
+//! from it), `flash` (the configuration store's sectors, without the HAL's panicking read)
+//! and `watchdog` (the independent watchdog).
 //!
 //! | | `qemu` (netduinoplus2) | `f405` (real STM32F405) |
 //! |---|---|---|
-//! | clocks | none: QEMU 7.2 does not emulate the RCC | HSE 8 MHz, PLL to 168 MHz (HAL) |
+//! | clocks | none: QEMU 7.2 does not emulate the RCC | crystal (8, 12, 16 or 25 MHz, chosen at build time, measured at boot) or HSI, PLL to 168 MHz |
 //! | link | USART1, QEMU's first `-serial` | USART1 on PA9/PA10, 921,600 baud 8N1 |
 //! | cost counter | TIM2, one count per instruction (`-icount shift=0`) | DWT CYCCNT, cycles |
 //! | schedule | lockstep; `free-running` on the semihosting command line | free-running; `lockstep` feature |
@@ -51,14 +52,16 @@
 //!
 //! Both boards sleep in [`sleep_until_interrupt`]: a WFI at the start of a 16-byte-aligned
 //! block (one 128-bit line of the flash accelerator) followed by three NOPs, the return and
-//! three more NOPs, all 16-bit instructions filling that line. ES0182 ("Debugging Sleep/Stop mode with WFE/WFI entry") reports that
-//! with DBGMCU_CR's DBG_SLEEP or DBG_STOP set, the instructions after a WFI can be mis-fetched
-//! on wake-up when the WFI is not so placed and a 32-bit instruction straddling a flash line
-//! follows it: a HardFault or a wild branch. The `f405` board also sets those bits only with
-//! a debugger attached (`f405`, step 2), so a flight without a probe runs outside the
-//! erratum's conditions, and the placement covers a bench session with one. Alignment was
-//! chosen over running the WFI from RAM (a RAM function and its copy for one instruction)
-//! and over an ISB after it (a 32-bit instruction itself, whose fetch the erratum concerns).
+//! three more NOPs, all 16-bit instructions filling that line. ES0182's erratum "Debugging
+//! Sleep/Stop mode with WFE/WFI entry" concerns the code after a WFI on wake-up while
+//! DBGMCU_CR's DBG_SLEEP or DBG_STOP is set; the bring-up review found the old loop in the
+//! pattern reported to mis-fetch there (a WFI not 8-byte aligned, interrupts masked, a 32-bit
+//! branch straddling a flash line after it: an intermittent HardFault or wild branch). The
+//! `f405` board now sets those bits only with a debugger attached (`f405`, step 2), so a
+//! flight without a probe runs outside the erratum's conditions, and the placement covers a
+//! bench session with one. Alignment was chosen over running the WFI from RAM (a RAM
+//! function and its copy for one instruction) and over an ISB after it (a 32-bit instruction
+//! itself, fetched right after the wake-up).
 //!
 //! Invariant: `unsafe` appears only in this module tree, each use with a
 //! `// Note(unsafe): ...` saying why it is sound.
@@ -77,6 +80,16 @@ pub mod usart1;
 
 #[cfg(all(feature = "qemu", feature = "usart1-pb6-pb7"))]
 compile_error!("`usart1-pb6-pb7` selects the `f405` board's USART1 pins; QEMU has no pins");
+#[cfg(all(
+    feature = "qemu",
+    any(
+        feature = "hse-12mhz",
+        feature = "hse-16mhz",
+        feature = "hse-25mhz",
+        feature = "provision-bor"
+    )
+))]
+compile_error!("the `hse-*` and `provision-bor` features are the `f405` board's; QEMU has no RCC");
 
 #[cfg(feature = "f405")]
 mod f405;
@@ -84,6 +97,8 @@ mod f405;
 pub mod flash;
 #[cfg(feature = "qemu")]
 mod qemu;
+#[cfg(feature = "f405")]
+pub mod rcc;
 #[cfg(feature = "f405")]
 pub mod watchdog;
 

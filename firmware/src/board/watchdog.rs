@@ -137,3 +137,4 @@ const _: () = assert!(Timeout::FLIGHT.millis_at(47_000) >= 60);
 const _: () = assert!(Timeout::FLIGHT.millis_at(17_000) <= 200);
 const _: () = assert!(Timeout::LONG.millis_at(32_000) == 8_000);
 const _: () = assert!(Timeout::LONG.millis_at(47_000) >= 5_000);
+const _: () = assert!(Timeout::LONG.millis_at(47_000) > crate::flash::SAVE_MAX_MS);
