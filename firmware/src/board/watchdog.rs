@@ -1,8 +1,8 @@
 //! The independent watchdog (IWDG) of the `f405` board: a hung main loop resets the MCU.
 //!
 //! Place in the data flow: outside it. Started first thing at boot with the long timeout
-//! ([`Timeout::LONG`]), which covers the boot (the crystal's bounded start, the option
-//! bytes, the store's load); set to the flight timeout ([`Timeout::FLIGHT`]) just before the
+//! ([`Timeout::LONG`]), which covers the boot (the crystal's bounded start and
+//! measurement, the PLL's bounded lock, the store's load); set to the flight timeout ([`Timeout::FLIGHT`]) just before the
 //! main loop, which feeds it once per completed pass (`crate::app::Board::pass_completed`:
 //! at least once per 20 ms period, the tick waking the loop in both schedules); set to the
 //! long timeout again around a configuration store write (a 128 KiB flash erase stalls the
