@@ -63,7 +63,8 @@
 //! The application starts in standby with the trim commands whatever the reset, and every
 //! frame says why the board reset and which clock it runs on ([`BootReport`]). After an
 //! abnormal reset ([`BootReport::needs_acknowledgement`]: a watchdog, a brown-out, a fault
-//! record) it passes no `Engage` request to the controller (each one counted,
+//! record; or a boot on the internal oscillator, whose link timing the acknowledgement
+//! verifies) it passes no `Engage` request to the controller (each one counted,
 //! [`LinkCounters::engage_inhibited`], the first logged) until the peer sends a `Reset`
 //! request, which acknowledges the reset (logged): it is never re-engaged automatically.
 //!
@@ -1579,10 +1580,17 @@ mod tests {
             previous_fault: true,
             ..after_watchdog
         };
+        // So does a power-on on the internal oscillator (the link's timing unverified).
+        let on_hsi = BootReport {
+            reset_cause: ResetCause::PowerOn,
+            clock: ClockSource::InternalFallback,
+            previous_fault: false,
+        };
         for (schedule, boot) in [
             (Schedule::Lockstep, after_watchdog),
             (Schedule::FreeRunning, after_watchdog),
             (Schedule::Lockstep, after_fault),
+            (Schedule::FreeRunning, on_hsi),
         ] {
             let mut app = App::new(schedule, boot, None).expect("config");
             let mut board: Mock = Mock::default();

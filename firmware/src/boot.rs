@@ -14,6 +14,15 @@
 //! controller (they are counted, `LinkCounters::engage_inhibited`) until a `Reset` request
 //! arrives: a peer that keeps asking to engage while it sees standby (as the simulator's
 //! does) does not re-engage the flight computer without noticing that it reset.
+//!
+//! The same holds on the internal-oscillator fallback ([`ClockSource::InternalFallback`]),
+//! whatever the reset: the link's bit timing then rests on the HSI, whose error over the
+//! board's temperature range (-8..+4.5 %, the STM32F405xx datasheet's HSI characteristics)
+//! can exceed what a 16x-oversampled receiver tolerates (RM0090, "USART receiver tolerance
+//! to clock deviation": 3.41 % with the baud-rate register's fraction in use), and a lower
+//! baud rate would not help (the error is a ratio). The peer's `Reset` request is the
+//! verification: it arrives only if the peer decoded this board's frames (the telemetry
+//! that says `InternalFallback`) and this board decoded the peer's, both at this clock.
 
 use ibvs_core::wire::{ClockSource, ResetCause};
 
@@ -89,11 +98,14 @@ impl BootReport {
         }
     }
 
-    /// True when the peer must acknowledge the reset (a `Reset` request) before an
-    /// `Engage` request reaches the controller: the cause needs it
-    /// ([`ResetCause::needs_acknowledgement`]) or a fault preceded the reset.
+    /// True when the peer must acknowledge the boot (a `Reset` request) before an `Engage`
+    /// request reaches the controller: the cause needs it
+    /// ([`ResetCause::needs_acknowledgement`]), a fault preceded the reset, or the board
+    /// runs on the internal oscillator (module doc).
     pub const fn needs_acknowledgement(&self) -> bool {
-        self.previous_fault || self.reset_cause.needs_acknowledgement()
+        self.previous_fault
+            || self.reset_cause.needs_acknowledgement()
+            || matches!(self.clock, ClockSource::InternalFallback)
     }
 }
 
@@ -148,5 +160,13 @@ mod tests {
             assert!(report(cause, false).needs_acknowledgement(), "{cause:?}");
         }
         assert!(!BootReport::power_on().needs_acknowledgement());
+        // On the HSI, whatever the reset: the link is verified by the acknowledgement.
+        for cause in [ResetCause::PowerOn, ResetCause::Pin, ResetCause::Software] {
+            let on_hsi = BootReport {
+                clock: ClockSource::InternalFallback,
+                ..report(cause, false)
+            };
+            assert!(on_hsi.needs_acknowledgement(), "{cause:?}");
+        }
     }
 }

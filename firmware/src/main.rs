@@ -27,6 +27,18 @@
 
 pub mod app;
 pub mod boot;
+// The `f405` board's clock arithmetic (crystal, PLL limits, crystal check): on the board and
+// on the host, for its tests.
+#[cfg(any(feature = "f405", not(target_os = "none")))]
+pub mod clock;
+// The `f405` board's flash driver under the configuration store: on the board and on the
+// host, for its tests.
+#[cfg(any(feature = "f405", not(target_os = "none")))]
+pub mod flash;
+// The brown-out level in the option bytes (read at boot; programmed by the provisioning
+// build only): on the `f405` board and on the host, for its tests.
+#[cfg(any(feature = "f405", not(target_os = "none")))]
+pub mod option_bytes;
 pub mod serial;
 pub mod store;
 // The path benchmark: on the boards only with the `bench` feature (it is 7 KB of flash the

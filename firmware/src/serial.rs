@@ -35,8 +35,26 @@
 //!   capacity) and returns; with TXE's interrupt enabled only while bytes remain, an idle
 //!   link raises no interrupt. Bytes queued after its run began are the next run's: the
 //!   producer pends the interrupt after queuing them.
+//! - [`SerialQueues::rx_ready`] is true only while the receive queue holds a byte, so the
+//!   main loop's read after it never waits; and it is true whenever a frame's end (a zero)
+//!   is queued, so no frame waits for the next byte. Frame ends are counted, not flagged:
+//!   the interrupt counts the zeros it queues, the main loop the zeros it takes, each side
+//!   writing only its own count, and their difference is the zeros queued now, whatever the
+//!   point of a read the interrupt lands at (tested at every point of
+//!   [`ByteQueue::pop_into`] and [`SerialQueues::read`]). A flag that `read` cleared before
+//!   it popped could be set by a zero the same read then took, leaving it over an empty queue:
+//!   the loop saw data, and the blocking read waited for the next byte.
 
-use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
+
+/// A point of the consumer's code between two accesses to shared state, where the producer's
+/// interrupt may run. Nothing on the boards; in the tests, the hook that runs the interrupt
+/// there (`tests::preemption`), so that every interleaving of a push with a read is tried.
+#[inline(always)]
+fn interrupt_may_run_here() {
+    #[cfg(test)]
+    tests::preemption::point();
+}
 
 /// A queue refused bytes: they did not fit (nothing was queued).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -131,28 +149,34 @@ impl<const N: usize> ByteQueue<N> {
     /// Consumer: the oldest byte, if any.
     pub fn pop(&self) -> Option<u8> {
         let head = self.head.load(Ordering::Relaxed);
+        interrupt_may_run_here();
         let tail = self.tail.load(Ordering::Acquire);
+        interrupt_may_run_here();
         if head == tail {
             return None;
         }
         let b = self.slot(head)?.load(Ordering::Relaxed);
+        interrupt_may_run_here();
         self.head.store(head.wrapping_add(1), Ordering::Release);
+        interrupt_may_run_here();
         Some(b)
     }
 
-    /// Consumer: moves as many of the oldest bytes as fit into `buf`; how many.
-    pub fn pop_into(&self, buf: &mut [u8]) -> usize {
-        let mut n = 0;
+    /// Consumer: moves as many of the oldest bytes as fit into `buf`; how many, and how many
+    /// of them are zeros (frame ends).
+    pub fn pop_into(&self, buf: &mut [u8]) -> (usize, u32) {
+        let (mut n, mut zeros) = (0, 0u32);
         for slot in buf.iter_mut() {
             match self.pop() {
                 Some(b) => {
                     *slot = b;
                     n += 1;
+                    zeros += u32::from(b == 0);
                 }
                 None => break,
             }
         }
-        n
+        (n, zeros)
     }
 }
 
@@ -233,8 +257,12 @@ pub struct SerialQueues<const RX: usize, const TX: usize> {
     rx: ByteQueue<RX>,
     tx: ByteQueue<TX>,
     rx_errors: AtomicU32,
-    /// A frame's end (a zero) was queued since the main loop's last read.
-    rx_frame_end: AtomicBool,
+    /// Zeros (frame ends) the interrupt has queued, ever, wrapping: the interrupt alone
+    /// writes it, after the push that queued the zero is published.
+    rx_ends_queued: AtomicU32,
+    /// Zeros the main loop has taken out of the receive queue, ever, wrapping: the main loop
+    /// alone writes it. `rx_ends_queued - rx_ends_taken` zeros are queued now.
+    rx_ends_taken: AtomicU32,
 }
 
 impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
@@ -244,7 +272,8 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
             rx: ByteQueue::new(),
             tx: ByteQueue::new(),
             rx_errors: AtomicU32::new(0),
-            rx_frame_end: AtomicBool::new(false),
+            rx_ends_queued: AtomicU32::new(0),
+            rx_ends_taken: AtomicU32::new(0),
         }
     }
 
@@ -269,7 +298,12 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
             let byte = regs.read_data();
             if sr.rx_ready {
                 match self.rx.push(byte) {
-                    Ok(()) if byte == 0 => self.rx_frame_end.store(true, Ordering::Release),
+                    // The interrupt is the count's only writer: a load and a store, no
+                    // read-modify-write loop; published after the zero it counts.
+                    Ok(()) if byte == 0 => self.rx_ends_queued.store(
+                        self.rx_ends_queued.load(Ordering::Relaxed).wrapping_add(1),
+                        Ordering::Release,
+                    ),
                     Ok(()) => {}
                     Err(QueueFull) => errors += 1,
                 }
@@ -293,25 +327,31 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
         regs.set_tx_empty_interrupt(run.finish());
     }
 
-    /// Main loop: moves received bytes into `buf`; how many (0 when none wait).
+    /// Main loop: moves received bytes into `buf`; how many (0 when none wait). The zeros
+    /// taken are counted off the frame ends queued, so a zero the interrupt queues during
+    /// the read is either taken by it (and counted) or left queued (and still counted as
+    /// queued): never a frame end reported over an empty queue, never one missed.
     pub fn read(&self, buf: &mut [u8]) -> usize {
-        // Cleared before the bytes are taken: a zero queued meanwhile sets it again. Bytes
-        // left behind (`buf` was full) may hold a frame's end: set again, read next.
-        self.rx_frame_end.store(false, Ordering::Relaxed);
-        let n = self.rx.pop_into(buf);
-        if !self.rx.is_empty() {
-            self.rx_frame_end.store(true, Ordering::Relaxed);
+        let (n, zeros) = self.rx.pop_into(buf);
+        if zeros > 0 {
+            let taken = self.rx_ends_taken.load(Ordering::Relaxed);
+            interrupt_may_run_here();
+            self.rx_ends_taken
+                .store(taken.wrapping_add(zeros), Ordering::Relaxed);
         }
         n
     }
 
     /// True when the main loop should read: a frame's end (a zero) is queued, or the queue
-    /// is half full (bytes that end no frame are read before they could overflow it). The
-    /// application decodes a frame once it is whole, in one pass over the queued bytes: the
-    /// work after a frame's last byte is the same however its bytes arrived, and a frame
-    /// costs one decode call, not one a byte.
+    /// is half full (bytes that end no frame are read before they could overflow it). True
+    /// only while a byte is queued, so the read after it returns at once. The application
+    /// decodes a frame once it is whole, in one pass over the queued bytes: the work after a
+    /// frame's last byte is the same however its bytes arrived, and a frame costs one decode
+    /// call, not one a byte.
     pub fn rx_ready(&self) -> bool {
-        self.rx_frame_end.load(Ordering::Acquire) || self.rx.len() >= RX / 2
+        // Acquire: a count seen includes the push of the zero it counts.
+        self.rx_ends_queued.load(Ordering::Acquire) != self.rx_ends_taken.load(Ordering::Relaxed)
+            || self.rx.len() >= RX / 2
     }
 
     /// Receive errors (flagged by the USART, or a byte the full queue could not take) since
@@ -344,6 +384,134 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
+
+    /// The tests' preemption points ([`super::interrupt_may_run_here`]): each call is one
+    /// point of the consumer's code, counted per thread; the interrupt armed by [`run`]
+    /// runs, once, at the point it was armed for.
+    pub(super) mod preemption {
+        use std::boxed::Box;
+        use std::cell::{Cell, RefCell};
+
+        type Interrupt = Box<dyn FnOnce()>;
+
+        std::thread_local! {
+            static PASSED: Cell<u32> = const { Cell::new(0) };
+            static ARMED: RefCell<Option<(u32, Interrupt)>> = const { RefCell::new(None) };
+        }
+
+        /// One point: runs the armed interrupt if this is its point.
+        pub fn point() {
+            let n = PASSED.with(|p| p.replace(p.get() + 1));
+            let due = ARMED.with(|a| {
+                let mut a = a.borrow_mut();
+                match a.as_ref() {
+                    Some((at, _)) if *at == n => a.take().map(|(_, f)| f),
+                    _ => None,
+                }
+            });
+            if let Some(interrupt) = due {
+                interrupt();
+            }
+        }
+
+        /// Runs `f` with `interrupt` armed at its `at`-th point (from 0; `None`: never);
+        /// returns `f`'s result, the points `f` passed and whether the interrupt ran.
+        pub fn run<R>(
+            at: Option<u32>,
+            interrupt: Interrupt,
+            f: impl FnOnce() -> R,
+        ) -> (R, u32, bool) {
+            PASSED.with(|p| p.set(0));
+            ARMED.with(|a| *a.borrow_mut() = at.map(|at| (at, interrupt)));
+            let r = f();
+            let fired = ARMED.with(|a| a.borrow_mut().take().is_none()) && at.is_some();
+            (r, PASSED.with(Cell::get), fired)
+        }
+    }
+
+    /// The receive race: the interrupt queues a byte (a frame's end or not) at every point
+    /// of the main loop's read (each access `pop_into` and `read` make to shared state), over
+    /// queues holding nothing, part of a frame, a whole frame, or close to half full, read
+    /// into buffers smaller and larger than what is queued. After the read, the queue
+    /// reports ready exactly when a zero is queued or it is half full (so a read after it
+    /// never waits, and no frame's end waits for another byte), and every byte comes out
+    /// once, in order.
+    #[test]
+    fn a_byte_received_at_any_point_of_a_read_leaves_readiness_exact() {
+        use std::cell::RefCell;
+        use std::rc::Rc;
+
+        const RX: usize = 16;
+        let queued: [&[u8]; 6] = [
+            &[],
+            &[5, 6],
+            &[5, 0],
+            &[5, 0, 7],
+            &[0, 0],
+            &[1, 2, 3, 4, 5, 6, 7],
+        ];
+        let mut interleavings = 0;
+        for before in queued {
+            for buf_len in [1, 2, 3, 8] {
+                for arrives in [0u8, 9] {
+                    // The read's points without an interrupt, then the interrupt at each.
+                    let points = {
+                        let link = SerialQueues::<RX, 16>::new();
+                        for &b in before {
+                            let mut usart = Usart {
+                                rx: Some(b),
+                                ..Usart::default()
+                            };
+                            link.on_interrupt(&mut usart);
+                        }
+                        let mut buf = [0u8; 8];
+                        let (_, points, _) = preemption::run(None, Box::new(|| {}), || {
+                            link.read(&mut buf[..buf_len])
+                        });
+                        points
+                    };
+                    for at in 0..points {
+                        let link = Rc::new(SerialQueues::<RX, 16>::new());
+                        let usart = Rc::new(RefCell::new(Usart::default()));
+                        for &b in before {
+                            usart.borrow_mut().rx = Some(b);
+                            link.on_interrupt(&mut *usart.borrow_mut());
+                        }
+                        let interrupt = {
+                            let (link, usart) = (Rc::clone(&link), Rc::clone(&usart));
+                            Box::new(move || {
+                                usart.borrow_mut().rx = Some(arrives);
+                                link.on_interrupt(&mut *usart.borrow_mut());
+                            })
+                        };
+                        let mut buf = [0u8; 8];
+                        let (n, _, fired) =
+                            preemption::run(Some(at), interrupt, || link.read(&mut buf[..buf_len]));
+                        assert!(fired, "point {at} of {points}");
+                        let case = format!(
+                            "{before:?} read into {buf_len}, {arrives} at point {at} of {points}"
+                        );
+                        // What is queued now, without taking it.
+                        let mut run = link.rx.reader();
+                        let mut left = Vec::new();
+                        while let Some(b) = run.pop() {
+                            left.push(b);
+                        }
+                        let want_ready = left.contains(&0) || left.len() >= RX / 2;
+                        assert_eq!(link.rx_ready(), want_ready, "{case}: left {left:?}");
+                        let mut all = buf[..n].to_vec();
+                        all.extend_from_slice(&left);
+                        let mut sent = before.to_vec();
+                        sent.push(arrives);
+                        assert_eq!(all, sent, "{case}");
+                        assert_eq!(link.take_rx_errors(), 0, "{case}");
+                        interleavings += 1;
+                    }
+                }
+            }
+        }
+        assert!(interleavings > 300, "{interleavings}");
+    }
 
     #[test]
     fn a_queue_keeps_order_across_many_wraps() {
@@ -382,7 +550,7 @@ mod tests {
         assert_eq!(q.push_all(&[6, 7, 8]), Ok(()), "exactly full");
         assert_eq!(q.push(9), Err(QueueFull));
         let mut out = [0u8; 16];
-        assert_eq!(q.pop_into(&mut out), 8);
+        assert_eq!(q.pop_into(&mut out), (8, 0));
         assert_eq!(&out[..8], &[1, 2, 3, 4, 5, 6, 7, 8]);
         assert!(q.is_empty() && q.pop().is_none());
         assert_eq!(q.push_all(&[]), Ok(()), "an empty frame fits");

@@ -13,18 +13,19 @@
 //! the boards' own serial link and configuration store: USART1's driver and interrupt
 //! handler (`board/usart1.rs`, the same file the firmware builds, with its vector in this
 //! binary's table) over the lock-free queues and the interrupt's logic (`serial.rs`), and
-//! the store (`store.rs`) over the `f405` board's flash driver (`board/flash.rs`: reads,
-//! erase and program). The release build (LTO, dead code removed) therefore links only if
+//! the store (`store.rs`) over the `f405` board's flash driver (`flash.rs`: reads, erase,
+//! program and the caches' flush, over the registers of `board/flash.rs`). The release build (LTO, dead code removed) therefore links only if
 //! no panic is reachable from any of them: a bounds check, an `unwrap`, an overflow check
 //! or an `unreachable!` that the optimiser could not prove dead would keep the panic
 //! handler, and with it the undefined symbol `a_panic_is_reachable_from_the_flight_code`,
 //! and the link fails naming it (checked: a deliberate out-of-bounds index in the
 //! interrupt's logic fails the link).
 //!
-//! Not in it: the boards' start-up (the clock set-up through the HAL, whose asserts depend
-//! only on the constant clock configuration; the option bytes), the SysTick handler (two
-//! atomic operations and a register read), the watchdog driver, the fault handlers
-//! themselves and the boards' logging (semihosting formatting; defmt).
+//! Not in it: the boards' start-up (the `f405` board's clock start, `board/rcc.rs`:
+//! register writes and bounded polls over factors `clock.rs` checks at compile time; the
+//! brown-out level's read and the provisioning build's option-byte write), the SysTick
+//! handler (two atomic operations and a register read), the watchdog driver, the fault
+//! handlers themselves and the boards' logging (semihosting formatting; defmt).
 //!
 //! It is built with the firmware (`cargo build -p firmware --target thumbv7em-none-eabihf
 //! --release`, both boards), so the check runs wherever the firmware is built; it is never
@@ -64,11 +65,17 @@ mod store;
 #[allow(dead_code, unsafe_code)]
 mod usart1;
 
-/// The `f405` board's flash driver under the store.
+/// The `f405` board's flash driver under the store (its logic, board-independent).
+#[cfg(target_os = "none")]
+#[path = "../flash.rs"]
+#[allow(dead_code)]
+mod flash;
+
+/// The `f405` board's flash registers under that driver.
 #[cfg(target_os = "none")]
 #[path = "../board/flash.rs"]
 #[allow(dead_code, unsafe_code)]
-mod flash;
+mod flash_registers;
 
 #[cfg(target_os = "none")]
 mod target {
@@ -76,6 +83,7 @@ mod target {
 
     use super::app::{App, Board, BootReport, Event, NoCounter, Periods, QueueFull, Schedule};
     use super::flash::{STORE_SLOT_LEN, STORE_SLOTS, StoreFlash};
+    use super::flash_registers::Registers;
     use super::store::{ConfigStore, Persist};
     use super::usart1::{self, SerialLink};
     use embedded_io::{ErrorType, Read, ReadReady};
@@ -148,7 +156,7 @@ mod target {
     /// The boards' own link and store: USART1's queues and interrupt, the flash driver.
     struct McuLink {
         link: SerialLink,
-        store: Option<ConfigStore<StoreFlash>>,
+        store: Option<ConfigStore<StoreFlash<Registers>>>,
     }
 
     impl Board for McuLink {
@@ -217,8 +225,12 @@ mod target {
             && let Some(dp) = pac::Peripherals::take()
         {
             let link = usart1::init(dp.USART1, black_box(None));
-            let mut store =
-                ConfigStore::new(StoreFlash::new(dp.FLASH), STORE_SLOTS, STORE_SLOT_LEN).ok();
+            let mut store = ConfigStore::new(
+                StoreFlash::new(Registers::new(dp.FLASH)),
+                STORE_SLOTS,
+                STORE_SLOT_LEN,
+            )
+            .ok();
             let stored = store
                 .as_mut()
                 .and_then(|s| s.load().newest)

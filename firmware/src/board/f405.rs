@@ -2,64 +2,66 @@
 //!
 //! Place in the data flow: start-up and logging on hardware. In order, at reset:
 //! 1. the reset cause: RCC_CSR's flags read, decoded (`crate::boot`) and cleared (RMVF);
-//! 2. debug: DBGMCU_CR's DBG_SLEEP, DBG_STOP and DBG_STANDBY set, so a probe can attach to a
-//!    core that sleeps in WFI almost always; DBGMCU_APB1_FZ's DBG_IWDG_STOP set, so the
-//!    watchdog stops while a debugger halts the core;
+//! 2. debug: with a debugger attached (the core's DHCSR.C_DEBUGEN) or in a debug build,
+//!    DBGMCU_CR's DBG_SLEEP, DBG_STOP and DBG_STANDBY set, so a probe can reach a core that
+//!    sleeps in WFI almost always, and DBGMCU_APB1_FZ's DBG_IWDG_STOP, so the watchdog stops
+//!    while a debugger halts the core; otherwise all four cleared. DBGMCU is reset only by
+//!    a power-on, so a bit a bench session left set would otherwise survive every later
+//!    reset, and with DBG_SLEEP or DBG_STOP set ES0182's "Debugging Sleep/Stop mode with
+//!    WFE/WFI entry" erratum applies (`super`, "Sleeping");
 //! 3. the independent watchdog started with its long timeout ([`super::watchdog`]);
 //! 4. the power-on self-test (on the 16 MHz HSI the MCU resets to);
-//! 5. the clock: the HSE 8 MHz crystal is given [`HSE_STARTUP_S`] (100 ms) to start; then
-//!    the PLL runs from it to SYSCLK = HCLK = 168 MHz (APB2 84 MHz for USART1, APB1 42 MHz)
-//!    and the clock security system (CSS) watches it; if it does not start, the PLL runs
-//!    from the HSI to the same frequencies (`ClockSource::InternalFallback` in every telemetry frame,
-//!    logged). An HSE failure later raises the CSS's NMI: the reason is recorded and the
-//!    board resets ([`super::fault::clock_failure_reset`]), and boots on the HSI if the
-//!    crystal is still dead;
-//! 6. the brown-out reset level: programmed to level 3 (2.7 V) in the option bytes if it is
-//!    not already ([`ensure_bor_level_3`]): 5 flash wait states at 168 MHz need VDD of at
-//!    least 2.7 V;
+//! 5. the clock ([`super::rcc`]): the crystal the build names (8 MHz, or the `hse-12mhz`,
+//!    `hse-16mhz`, `hse-25mhz` feature's; `crate::clock`) given 100 ms to start, measured
+//!    against the HSI, and fed to the PLL only if it is that crystal; else the PLL from the
+//!    HSI. SYSCLK = HCLK = 168 MHz, APB2 84 MHz (USART1), APB1 42 MHz either way; the clock
+//!    security system watches the crystal. On the HSI the telemetry says
+//!    `ClockSource::InternalFallback`, and the peer must acknowledge before an engage
+//!    (`crate::boot`: the link's timing rests on the HSI's accuracy). An HSE failure later
+//!    raises the CSS's NMI: the reason is recorded and the board resets
+//!    ([`super::fault::clock_failure_reset`]);
+//! 6. the brown-out reset level read from the option bytes and logged (never written here:
+//!    the `provision-bor` build programs it, `crate::option_bytes`);
 //! 7. USART1 at 921,600 baud 8N1 on PA9 (TX) / PA10 (RX, pull-up), alternate function 7, or on
 //!    PB6 / PB7 with the `usart1-pb6-pb7` feature (the STM32F4DISCOVERY, whose PA9 is USB
 //!    VBUS with a capacitor on it); the DWT cycle counter measures costs ([`DwtCounter`]);
 //! 8. SysTick at 50 Hz in both schedules (free-running, the flight default, steps on it;
 //!    lockstep, the `lockstep` feature for hardware in the loop, only wakes on it, so the
 //!    loop feeds the watchdog while the peer is silent);
-//! 9. the configuration store (sectors 10 and 11, [`super::flash`]), the application, the
-//!    watchdog set to its flight timeout, and the main loop.
+//! 9. the configuration store (sectors 10 and 11, `crate::flash`, erased at x32 when the
+//!    brown-out level is 3), the application, the watchdog set to its flight timeout, and
+//!    the main loop.
+//!
+//! The `provision-bor` build stops after step 2: it programs the brown-out level (once, on
+//! purpose), resets to confirm it, logs the outcome and halts ([`provision_bor`]).
 //!
 //! Logs are defmt over RTT in non-blocking mode (`disable-blocking-mode`: with no probe
 //! reading, old log bytes are overwritten instead of the core spinning), read with
 //! `probe-rs run` (firmware/README.md).
 //!
-//! Built from RM0090, the datasheet and the HAL; not yet run on a board.
+//! Built from RM0090, the datasheet, ES0182 and the HAL; not yet run on a board.
 
 use defmt_rtt as _;
 use ibvs_core::wire::{ClockSource, ConfigStorage, CostUnit};
 use stm32f4xx_hal::pac::{self, USART1};
 use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::rcc::{Config, Enable, Reset};
+use stm32f4xx_hal::rcc::{Enable, Reset};
 
 use super::fault::{FaultRecord, send_safe_frame};
-use super::flash::{STORE_SLOT_LEN, STORE_SLOTS, StoreFlash};
+use super::flash::Registers;
+use super::rcc::Started;
 use super::watchdog::{Timeout, Watchdog};
 use super::{McuBoard, Services};
 use crate::app::{App, BootReport, CostCounter, Event, Schedule};
 use crate::boot::reset_cause_from_rcc_csr;
+use crate::clock::{PCLK2_HZ, SYSCLK_HZ};
+use crate::flash::{STORE_SLOT_LEN, STORE_SLOTS, StoreFlash};
 use crate::one_step;
+use crate::option_bytes::BorLevel;
 use crate::store::{ConfigStore, Persist};
 
 /// Link baud rate, bit/s.
 pub const BAUD_BPS: u32 = 921_600;
-/// External crystal, Hz.
-pub const HSE_HZ: u32 = 8_000_000;
-/// The internal RC oscillator the MCU resets to, Hz.
-const HSI_HZ: u32 = 16_000_000;
-/// Core clock, Hz.
-pub const SYSCLK_HZ: u32 = 168_000_000;
-/// How long the crystal is given to start at boot, seconds (ST's usual HSE start-up
-/// timeout; a crystal typically starts in 2 ms).
-pub const HSE_STARTUP_S: f32 = 0.1;
-/// [`HSE_STARTUP_S`] in cycles of the HSI, the clock the MCU runs on while it waits.
-const HSE_STARTUP_CYCLES: u32 = (HSE_STARTUP_S * HSI_HZ as f32) as u32;
 
 /// The DWT cycle counter.
 pub struct DwtCounter;
@@ -104,8 +106,9 @@ const SCHEDULE: Schedule = if cfg!(feature = "lockstep") {
     Schedule::FreeRunning
 };
 
-/// Start-up (the module doc's order): reset cause, debug, watchdog, self-test, clocks,
-/// brown-out level, pins, link, tick, store, application.
+/// Start-up (the module doc's order): reset cause and debug, then the flight build's
+/// watchdog, self-test, clocks, brown-out level, pins, link, tick, store and application, or
+/// the provisioning build's option-byte step.
 pub fn start() -> ! {
     let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::error!("firmware: peripherals already taken");
@@ -114,20 +117,30 @@ pub fn start() -> ! {
     // 1. Why the MCU reset; the flags are sticky until cleared, so clear them for the next.
     let csr = dp.RCC.csr().read().bits();
     dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
-    let reset_cause = reset_cause_from_rcc_csr(csr);
-    // 2. A probe can attach to the sleeping core; the watchdog stops under a halted core.
+    // 2. Debug in sleep and a frozen watchdog with a debugger only (module doc).
+    let debugger = cortex_m::peripheral::DCB::is_debugger_attached() || cfg!(debug_assertions);
     dp.DBGMCU.cr().modify(|_, w| {
-        w.dbg_sleep().set_bit();
-        w.dbg_stop().set_bit();
-        w.dbg_standby().set_bit()
+        w.dbg_sleep().bit(debugger);
+        w.dbg_stop().bit(debugger);
+        w.dbg_standby().bit(debugger)
     });
     dp.DBGMCU
         .apb1_fz()
-        .modify(|_, w| w.dbg_iwdg_stop().set_bit());
-    // 3. From here a hang resets the board.
-    let mut watchdog = Watchdog::start(dp.IWDG, Timeout::LONG);
+        .modify(|_, w| w.dbg_iwdg_stop().bit(debugger));
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+    if cfg!(feature = "provision-bor") {
+        provision_bor(dp.FLASH, csr, debugger)
+    } else {
+        fly(dp, cp, csr, debugger)
+    }
+}
+
+/// The flight build's start-up from step 3 (the module doc's order), then the application.
+fn fly(dp: pac::Peripherals, cp: cortex_m::Peripherals, csr: u32, debugger: bool) -> ! {
+    let reset_cause = reset_cause_from_rcc_csr(csr);
+    // 3. From here a hang resets the board.
+    let mut watchdog = Watchdog::start(dp.IWDG, Timeout::LONG);
 
     if let Err(e) = one_step::run() {
         defmt::error!(
@@ -138,27 +151,14 @@ pub fn start() -> ! {
         super::fault::halt()
     }
 
-    // 5. The crystal if it starts in time, else the HSI, through the PLL either way.
-    let clock = if start_crystal(&dp.RCC) {
-        ClockSource::Crystal
-    } else {
-        ClockSource::InternalFallback
+    // 5. The crystal if it starts in time and is the expected one, else the HSI, through
+    // the PLL either way.
+    let clock = match super::rcc::start(&dp.RCC, &dp.FLASH, &dp.TIM11, &dp.DBGMCU) {
+        Ok(Started::Crystal(_)) => ClockSource::Crystal,
+        Ok(Started::Fallback(_)) => ClockSource::InternalFallback,
+        Err(super::rcc::NoClock) => super::fault::clock_failure_reset("clock: no PLL lock"),
     };
-    let source = match clock {
-        ClockSource::Crystal => Config::hse(HSE_HZ.Hz()),
-        ClockSource::InternalFallback | ClockSource::NotReported => Config::hsi(),
-    };
-    let mut rcc = dp.RCC.freeze(
-        source
-            .sysclk(SYSCLK_HZ.Hz())
-            .pclk1(42.MHz())
-            .pclk2(84.MHz()),
-    );
-    if clock == ClockSource::Crystal {
-        // The clock security system: an HSE failure switches SYSCLK to the HSI and raises
-        // the NMI (`NonMaskableInt` below).
-        rcc.cr().modify(|_, w| w.csson().set_bit());
-    }
+    let mut rcc = dp.RCC.constrain();
     #[cfg(feature = "bench")]
     {
         let c = crate::bench::measure::<DwtBenchCounter>();
@@ -166,10 +166,21 @@ pub fn start() -> ! {
             "firmware bench: {}",
             defmt::Display2Format(&crate::bench::Json(&c, "cycles"))
         );
+        // The longest a log frame keeps interrupts masked (defmt-rtt's critical section
+        // spans the frame's encoding): one of the longest events, timed.
+        let t0 = cortex_m::peripheral::DWT::cycle_count();
+        log(Event::DeadlineOverrun {
+            elapsed: u32::MAX,
+            deadline: u32::MAX,
+            step: u32::MAX,
+        });
+        let cycles = cortex_m::peripheral::DWT::cycle_count().wrapping_sub(t0);
+        defmt::info!("firmware bench: one log frame took {} cycles", cycles);
     }
 
-    // 6. The brown-out level the flash's wait states need.
-    let bor = ensure_bor_level_3(&dp.FLASH);
+    // 6. The brown-out level the flash's wait states need: read, never written here.
+    let optcr = dp.FLASH.optcr().read().bits();
+    let bor = BorLevel::of(optcr);
 
     // 7. USART1's pins, the peripheral, the link.
     #[cfg(not(feature = "usart1-pb6-pb7"))]
@@ -187,37 +198,48 @@ pub fn start() -> ! {
     USART1::enable(&mut rcc);
     USART1::reset(&mut rcc);
     // BRR = f_pclk2 / baud with 16x oversampling (mantissa and 4-bit fraction), rounded:
-    // 91 at 84 MHz, which gives 84 MHz / 91 = 923,077 baud, +0.16 % from 921,600 (a UART
-    // receiver samples mid-bit and tolerates a few percent over a 10-bit 8N1 character).
-    let pclk2 = rcc.clocks.pclk2().raw();
-    let brr = ((pclk2 + BAUD_BPS / 2) / BAUD_BPS) as u16;
-    let link = super::usart1::init(dp.USART1, Some(brr));
+    // 91 at 84 MHz, which gives 84 MHz / 91 = 923,077 baud, +0.16 % from 921,600. With a
+    // fraction, RM0090 ("USART receiver tolerance to clock deviation") gives the receiver
+    // 3.41 % of total deviation: the +0.16 % and the clock's own error (the crystal's is
+    // parts per million; the HSI's is up to -8..+4.5 %, hence the acknowledgement asked on
+    // the fallback, `crate::boot`) must stay inside it.
+    const BRR: u16 = ((PCLK2_HZ + BAUD_BPS / 2) / BAUD_BPS) as u16;
+    let link = super::usart1::init(dp.USART1, Some(BRR));
 
     let previous = super::fault::take_previous();
     if let Some(r) = &previous {
         log_fault("before the last reset", r);
     }
     // 8. The tick, in both schedules.
-    if super::systick::start(cp.SYST, rcc.clocks.hclk().raw()).is_err() {
+    if super::systick::start(cp.SYST, SYSCLK_HZ).is_err() {
         defmt::error!("firmware: SysTick reload out of range");
         super::fault::halt()
     }
     // 9. The configuration store in flash sectors 10 and 11 (memory.x keeps the program out
-    // of them): the newest valid configuration in it, or the default.
-    let mut store = match ConfigStore::new(StoreFlash::new(dp.FLASH), STORE_SLOTS, STORE_SLOT_LEN) {
+    // of them): the newest valid configuration in it, or the default. The layout is refused
+    // on a part without those sectors (F_SIZE below 1 MiB).
+    let flash = StoreFlash::new(Registers::new(dp.FLASH));
+    let (flash_len, erase) = (flash.len(), flash.erase_parallelism());
+    let mut store = match ConfigStore::new(flash, STORE_SLOTS, STORE_SLOT_LEN) {
         Ok(s) => Some(s),
         Err(e) => {
-            defmt::error!("firmware: configuration store unusable: {}", e);
+            defmt::error!(
+                "firmware: configuration store unusable ({} B of flash): {}",
+                flash_len,
+                e
+            );
             None
         }
     };
     let loaded = store.as_mut().map(ConfigStore::load);
     if let Some(l) = &loaded {
         defmt::info!(
-            "firmware: configuration store: slots {}, {}; newest generation {}",
+            "firmware: configuration store: slots {}, {}; newest generation {}; erase {} ({} ms at most)",
             l.slots[0],
             l.slots[1],
-            l.newest.map(|(_, g)| g)
+            l.newest.map(|(_, g)| g),
+            erase,
+            erase.erase_time().max_ms
         );
     }
     let stored = loaded.and_then(|l| l.newest).map(|(cfg, _)| cfg);
@@ -227,14 +249,23 @@ pub fn start() -> ! {
         previous_fault: previous.is_some(),
     };
     defmt::info!(
-        "firmware: reset cause {} (RCC_CSR {=u32:#010x}), clock {}, brown-out level: {}",
+        "firmware: reset cause {} (RCC_CSR {=u32:#010x}), clock {}, brown-out level {} (FLASH_OPTCR {=u32:#010x}), debugger {}",
         reset_cause,
         csr,
         clock,
-        bor
+        bor,
+        optcr,
+        debugger
     );
+    if bor != BorLevel::Level3 {
+        defmt::warn!(
+            "firmware: brown-out reset not at level 3: 5 flash wait states need 2.7 V; provision it once with the `provision-bor` build (firmware/README.md)"
+        );
+    }
     if boot.needs_acknowledgement() {
-        defmt::warn!("firmware: abnormal reset: engage refused until the peer sends Reset");
+        defmt::warn!(
+            "firmware: engage refused until the peer sends Reset (an abnormal reset, or the HSI fallback)"
+        );
     }
     let app = match App::new(SCHEDULE, boot, stored) {
         Ok(app) => app,
@@ -250,7 +281,7 @@ pub fn start() -> ! {
     let updated = watchdog.set(Timeout::FLIGHT);
     defmt::info!(
         "firmware: f405 board, sysclk {} Hz, USART1 {} baud, free-running: {}; watchdog {} ms (68..188 ms over the LSI's range), set: {}",
-        rcc.clocks.sysclk().raw(),
+        SYSCLK_HZ,
         BAUD_BPS,
         SCHEDULE == Schedule::FreeRunning,
         Timeout::FLIGHT.millis_at(32_000),
@@ -262,18 +293,72 @@ pub fn start() -> ! {
     ))
 }
 
-/// Turns the HSE on and waits for it at most [`HSE_STARTUP_S`]; true when it is ready, and
-/// false with the HSE turned off again when it did not start (no crystal, a broken one).
-fn start_crystal(rcc: &pac::RCC) -> bool {
-    rcc.cr().modify(|_, w| w.hseon().set_bit());
-    let t0 = cortex_m::peripheral::DWT::cycle_count();
-    while rcc.cr().read().hserdy().bit_is_clear() {
-        if cortex_m::peripheral::DWT::cycle_count().wrapping_sub(t0) > HSE_STARTUP_CYCLES {
-            rcc.cr().modify(|_, w| w.hseon().clear_bit());
-            return false;
-        }
+/// The provisioning build (`provision-bor`): programs the brown-out reset to level 3 once,
+/// resets to read it back, logs the outcome and halts (`crate::option_bytes`, the state
+/// machine; firmware/README.md, the steps). Runs on the HSI, before the watchdog.
+fn provision_bor(flash: pac::FLASH, csr: u32, debugger: bool) -> ! {
+    use crate::option_bytes::{Attempt, Next, provision};
+    /// Polls of FLASH_SR's BSY: at least 1 s at the HSI's 16 MHz.
+    const BUSY_POLLS: u32 = 16_000_000;
+    let attempt = take_provision_attempt();
+    let mut regs = Registers::new(flash);
+    let at_boot = crate::flash::FlashRegisters::optcr(&mut regs);
+    let (found, next) = provision(&mut regs, attempt, BUSY_POLLS);
+    defmt::info!(
+        "provision-bor: reset cause {}, FLASH_OPTCR at boot {=u32:#010x} (brown-out level {}), attempt before this reset {}, debugger {}: {}",
+        reset_cause_from_rcc_csr(csr),
+        at_boot,
+        BorLevel::of(at_boot),
+        attempt == Attempt::Programmed,
+        debugger,
+        found
+    );
+    if next == Next::Reset {
+        record_provision_attempt();
+        cortex_m::peripheral::SCB::sys_reset()
     }
-    true
+    defmt::info!("provision-bor: done; flash the flight build now");
+    super::fault::halt()
+}
+
+/// The provisioning's attempt, kept across the reset that confirms it (`.uninit`: a reset
+/// neither loads nor zeroes it; a power cycle loses it, which reads as no attempt).
+// Note(unsafe): `link_section` only places the static in `.uninit`; only the provisioning
+// build's boot reads and writes it, before interrupts are enabled.
+#[allow(unsafe_code)]
+#[unsafe(link_section = ".uninit.PROVISION_ATTEMPT")]
+static mut PROVISION_ATTEMPT: core::mem::MaybeUninit<u32> = core::mem::MaybeUninit::uninit();
+
+/// [`PROVISION_ATTEMPT`]'s value for `Attempt::Programmed` ("BOR3").
+const ATTEMPT_PROGRAMMED: u32 = u32::from_le_bytes(*b"BOR3");
+
+/// The attempt recorded before this reset; clears it.
+fn take_provision_attempt() -> crate::option_bytes::Attempt {
+    // Note(unsafe): read and written only here and in `record_provision_attempt`, at boot,
+    // with interrupts not yet enabled; any bit pattern is a u32.
+    #[allow(unsafe_code)]
+    let v = unsafe {
+        let v = core::ptr::read_volatile(&raw const PROVISION_ATTEMPT).assume_init();
+        core::ptr::write_volatile(&raw mut PROVISION_ATTEMPT, core::mem::MaybeUninit::new(0));
+        v
+    };
+    if v == ATTEMPT_PROGRAMMED {
+        crate::option_bytes::Attempt::Programmed
+    } else {
+        crate::option_bytes::Attempt::None
+    }
+}
+
+/// Records `Attempt::Programmed` for the boot after the reset.
+fn record_provision_attempt() {
+    // Note(unsafe): as in `take_provision_attempt`.
+    #[allow(unsafe_code)]
+    unsafe {
+        core::ptr::write_volatile(
+            &raw mut PROVISION_ATTEMPT,
+            core::mem::MaybeUninit::new(ATTEMPT_PROGRAMMED),
+        );
+    }
 }
 
 /// The clock security system's NMI (the only NMI source used here): the HSE failed, the
@@ -295,80 +380,18 @@ unsafe fn NonMaskableInt() {
     })
 }
 
-/// What [`ensure_bor_level_3`] found or did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum BorOutcome {
-    /// Level 3 was already programmed.
-    AlreadyLevel3,
-    /// It was lower (the factory's "off"); now level 3, read back.
-    Programmed,
-    /// The option bytes could not be unlocked or did not read back level 3 (FLASH_OPTCR).
-    Failed(u32),
-}
-
-/// FLASH_OPTCR (RM0090): bits 3:2 BOR_LEV, `00` = level 3 (VBOR3, 2.70 V) up to `11` = off
-/// (the factory value). The PAC's names for these values run the other way round, so the
-/// bits are used here as RM0090 and ST's `OB_BOR_LEVEL3 = 0x00` define them.
-const OPTCR_BOR_LEV: u32 = 0b11 << 2;
-const OPTCR_OPTSTRT: u8 = 1 << 1;
-const OPTCR_OPTLOCK: u8 = 1 << 0;
-/// FLASH_OPTKEYR's unlock sequence.
-const OPTKEY1: u32 = 0x0819_2A3B;
-const OPTKEY2: u32 = 0x4C5D_6E7F;
-
-/// Programs the brown-out reset to level 3 (2.7 V) in the option bytes unless it already is,
-/// so the MCU is held in reset whenever VDD is too low for 5 flash wait states at 168 MHz.
-///
-/// How it is safe: it writes only FLASH_OPTCR's low byte (BOR_LEV, with the watchdog and
-/// reset-on-stop/standby user bits it holds as read), as ST's library does, so the read
-/// protection and the write protections (bytes 1 to 3) are never written; it runs once per
-/// board (afterwards it reads level 3 and writes nothing), at boot, before the link is up,
-/// with the watchdog at its long timeout; and it reads the result back. The remaining risk
-/// is a power cut in the milliseconds of that first boot's option write, which can leave
-/// the option bytes inconsistent (the MCU then loads protective values): it happens on the
-/// bench, when a board is first flashed, not in flight.
-fn ensure_bor_level_3(flash: &pac::FLASH) -> BorOutcome {
-    let optcr = flash.optcr().read().bits();
-    if optcr & OPTCR_BOR_LEV == 0 {
-        return BorOutcome::AlreadyLevel3;
-    }
-    while flash.sr().read().bsy().bit_is_set() {}
-    flash.optkeyr().write(|w| w.optkeyr().set(OPTKEY1));
-    flash.optkeyr().write(|w| w.optkeyr().set(OPTKEY2));
-    if flash.optcr().read().optlock().bit_is_set() {
-        return BorOutcome::Failed(flash.optcr().read().bits());
-    }
-    // FLASH_OPTCR's low byte: BOR_LEV cleared (level 3), OPTSTRT and OPTLOCK clear, the
-    // other user bits as read.
-    let byte0 = (optcr & 0xFF & !OPTCR_BOR_LEV) as u8 & !(OPTCR_OPTSTRT | OPTCR_OPTLOCK);
-    let optcr_byte0 = flash.optcr().as_ptr().cast::<u8>();
-    // Note(unsafe): byte writes to FLASH_OPTCR's low byte (its address, a mapped
-    // register), unlocked above; RM0090's sequence: the new value, then OPTSTRT.
-    #[allow(unsafe_code)]
-    unsafe {
-        core::ptr::write_volatile(optcr_byte0, byte0);
-        core::ptr::write_volatile(optcr_byte0, byte0 | OPTCR_OPTSTRT);
-    }
-    while flash.sr().read().bsy().bit_is_set() {}
-    flash.optcr().modify(|_, w| w.optlock().set_bit());
-    let after = flash.optcr().read().bits();
-    if after & OPTCR_BOR_LEV == 0 {
-        BorOutcome::Programmed
-    } else {
-        BorOutcome::Failed(after)
-    }
-}
-
 /// The board's services: the configuration store (or none when its layout was refused at
 /// boot: then every write is `Failed`) and the watchdog.
 struct BoardServices {
-    store: Option<ConfigStore<StoreFlash>>,
+    store: Option<ConfigStore<StoreFlash<Registers>>>,
     watchdog: Watchdog,
 }
 
 impl Services for BoardServices {
     /// Stores with the watchdog at its long timeout: the sector erase stalls the CPU for up
-    /// to 4 s; the flight timeout is set back (and the counter restarted) after it.
+    /// to 4 s (`crate::flash::SAVE_MAX_MS`, which the long timeout outlasts at the fastest
+    /// LSI: checked in `super::watchdog`); the flight timeout is set back (and the counter
+    /// restarted) after it.
     fn persist(&mut self, cfg: &ibvs_core::ControllerConfig) -> ConfigStorage {
         self.watchdog.set(Timeout::LONG);
         let outcome = match &mut self.store {
@@ -414,7 +437,7 @@ pub fn log(event: Event) {
             deadline
         ),
         Event::EngageInhibited { cause } => defmt::warn!(
-            "engage refused: the reset ({}) is not acknowledged (send Reset)",
+            "engage refused until the peer sends Reset (reset cause {}; asked on the HSI fallback too)",
             cause
         ),
         Event::ResetAcknowledged => defmt::info!("reset acknowledged: engage allowed"),
@@ -422,13 +445,18 @@ pub fn log(event: Event) {
 }
 
 fn log_fault(when: &str, r: &FaultRecord) {
+    let s = &r.status;
     defmt::error!(
-        "FAULT {}: {} at {}:{} pc {=u32:#010x}",
+        "FAULT {}: {} at {}:{} pc {=u32:#010x} CFSR {=u32:#010x} HFSR {=u32:#010x} MMFAR {=u32:#010x} BFAR {=u32:#010x}",
         when,
         FaultRecord::text(&r.message),
         FaultRecord::text(&r.file),
         r.line,
-        r.pc
+        r.pc,
+        s.cfsr,
+        s.hfsr,
+        s.mmfar,
+        s.bfar
     );
 }
 

@@ -23,6 +23,20 @@
 //! that faulted is abandoned (the handler never returns); its stacked PC is read only if the
 //! exception frame lies in RAM.
 //!
+//! The trampoline also clears FPCCR's LSPACT first (Cortex-M4 Devices Generic User Guide,
+//! "Floating-point Context Control Register"): the flight code uses the FPU, so an exception
+//! entry reserves room for the floating-point registers on the faulting stack and defers
+//! their save (lazy stacking: LSPACT set, FPCAR pointing at that room) to the handler's first
+//! floating-point instruction. After a stack overflow FPCAR points below RAM, and that save
+//! would fault inside HardFault: a lock-up. Clearing LSPACT abandons the deferred save (the
+//! faulting context is abandoned anyway), so the handler may use the FPU.
+//!
+//! The record keeps the fault status registers as read in the handler (the Cortex-M4
+//! Generic User Guide, "System control block"): CFSR (the MemManage, BusFault and UsageFault
+//! status), HFSR (HardFault status: FORCED for an escalated fault, VECTTBL for a vector
+//! read), MMFAR and BFAR (the faulting addresses, meaningful when CFSR's MMARVALID and
+//! BFARVALID say so); the next boot logs them.
+//!
 //! A clock failure (the clock security system's NMI, `f405` board) records its reason and
 //! resets the board at once ([`clock_failure_reset`]): the link's baud rate depends on the
 //! lost clock, so a safe frame could not be sent; the next boot runs on the internal
@@ -56,11 +70,56 @@ pub struct FaultRecord {
     pub line: u32,
     /// Faulting program counter (HardFault), 0 for a panic.
     pub pc: u32,
+    /// The fault status registers when the record was written (module doc).
+    pub status: FaultStatus,
     /// Source file of the panic (truncated, NUL-padded).
     pub file: [u8; TEXT_LEN],
     /// Panic message or fault name (truncated, NUL-padded).
     pub message: [u8; TEXT_LEN],
     check: u32,
+}
+
+/// The system control block's fault status and address registers (Cortex-M4 Generic User
+/// Guide, "System control block").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct FaultStatus {
+    /// Configurable Fault Status Register (0xE000_ED28): MMFSR byte 0, BFSR byte 1, UFSR
+    /// bytes 2-3.
+    pub cfsr: u32,
+    /// HardFault Status Register (0xE000_ED2C): VECTTBL bit 1, FORCED bit 30, DEBUGEVT
+    /// bit 31.
+    pub hfsr: u32,
+    /// MemManage Fault Address Register (0xE000_ED34), valid when CFSR's MMARVALID (bit 7).
+    pub mmfar: u32,
+    /// BusFault Address Register (0xE000_ED38), valid when CFSR's BFARVALID (bit 15).
+    pub bfar: u32,
+}
+
+impl FaultStatus {
+    const fn empty() -> Self {
+        Self {
+            cfsr: 0,
+            hfsr: 0,
+            mmfar: 0,
+            bfar: 0,
+        }
+    }
+
+    /// The registers now.
+    pub fn read() -> Self {
+        // Note(unsafe): word reads of the system control block's fault registers, always
+        // mapped and aligned, without side effects (they clear only when written).
+        #[allow(unsafe_code)]
+        unsafe {
+            Self {
+                cfsr: core::ptr::read_volatile(0xE000_ED28 as *const u32),
+                hfsr: core::ptr::read_volatile(0xE000_ED2C as *const u32),
+                mmfar: core::ptr::read_volatile(0xE000_ED34 as *const u32),
+                bfar: core::ptr::read_volatile(0xE000_ED38 as *const u32),
+            }
+        }
+    }
 }
 
 impl FaultRecord {
@@ -69,6 +128,7 @@ impl FaultRecord {
             magic: 0,
             line: 0,
             pc: 0,
+            status: FaultStatus::empty(),
             file: [0; TEXT_LEN],
             message: [0; TEXT_LEN],
             check: 0,
@@ -76,7 +136,14 @@ impl FaultRecord {
     }
 
     fn checksum(&self) -> u32 {
-        let mut h = self.magic ^ self.line.rotate_left(7) ^ self.pc.rotate_left(13);
+        let s = &self.status;
+        let mut h = self.magic
+            ^ self.line.rotate_left(7)
+            ^ self.pc.rotate_left(13)
+            ^ s.cfsr.rotate_left(3)
+            ^ s.hfsr.rotate_left(11)
+            ^ s.mmfar.rotate_left(17)
+            ^ s.bfar.rotate_left(23);
         for &b in self.file.iter().chain(self.message.iter()) {
             h = h.rotate_left(5) ^ u32::from(b);
         }
@@ -174,6 +241,7 @@ fn record(fill: impl FnOnce(&mut FaultRecord)) -> Option<FaultRecord> {
     }
     let mut r = FaultRecord::empty();
     r.magic = MAGIC;
+    r.status = FaultStatus::read();
     fill(&mut r);
     r.check = r.checksum();
     store(&r);
@@ -207,7 +275,7 @@ pub fn clock_failure_reset(reason: &str) -> ! {
 /// Parks the core.
 pub fn halt() -> ! {
     loop {
-        cortex_m::asm::wfi();
+        super::sleep_until_interrupt();
     }
 }
 
@@ -234,12 +302,16 @@ fn panic(info: &PanicInfo<'_>) -> ! {
 }
 
 // The HardFault vector (cortex-m-rt's `HardFault` symbol, which this definition overrides):
-// the faulting stack pointer (MSP or PSP, per EXC_RETURN in LR) into r0, the stack pointer
-// set to the top of the stack region (`_stack_start`, cortex-m-rt's and flip-link's initial
-// stack pointer), then a branch to the Rust handler, which never returns.
+// the faulting stack pointer (MSP or PSP, per EXC_RETURN in LR) into r0, FPCCR's LSPACT
+// (bit 0 of 0xE000_EF34) cleared so that no deferred floating-point save targets the
+// faulting stack (module doc), the stack pointer set to the top of the stack region
+// (`_stack_start`, cortex-m-rt's and flip-link's initial stack pointer), then a branch to
+// the Rust handler, which never returns, with FPCCR as found in r1. DSB and ISB complete
+// the FPCCR write before any later instruction can use the FPU.
 // Note(unsafe): `global_asm!` is unsafe by nature; the entry uses no stack and touches no
-// memory before the new stack pointer is set, and the handler it branches to is an
-// `extern "C" fn(u32) -> !` that takes the old stack pointer as a plain integer.
+// memory but FPCCR (a mapped system register) before the new stack pointer is set, and the
+// handler it branches to is an `extern "C" fn(u32, u32) -> !` that takes the old stack
+// pointer and FPCCR as plain integers.
 #[allow(unsafe_code)]
 mod trampoline {
     core::arch::global_asm!(
@@ -252,8 +324,15 @@ mod trampoline {
         "ite eq",
         "mrseq r0, MSP",
         "mrsne r0, PSP",
-        "ldr r1, =_stack_start",
-        "msr MSP, r1",
+        "ldr r1, =0xE000EF34",
+        "ldr r2, [r1]",
+        "bic r3, r2, #1",
+        "str r3, [r1]",
+        "dsb",
+        "isb",
+        "mov r1, r2",
+        "ldr r2, =_stack_start",
+        "msr MSP, r2",
         "b {handler}",
         ".ltorg",
         ".size HardFault, . - HardFault",
@@ -265,9 +344,10 @@ mod trampoline {
 const RAM: core::ops::Range<u32> = 0x2000_0000..0x2002_0000;
 
 /// The HardFault handler proper, on a fresh stack (entered from the `HardFault` trampoline
-/// with the stack pointer that faulted): records the stacked PC when the exception frame
-/// lies in RAM, or names a stack overflow when the stack pointer left RAM.
-extern "C" fn hard_fault_on_fresh_stack(faulted_sp: u32) -> ! {
+/// with the stack pointer that faulted and FPCCR as the trampoline found it): records the
+/// stacked PC when the exception frame lies in RAM, or names a stack overflow when the stack
+/// pointer left RAM, and notes "LSPACT" when a deferred floating-point save was abandoned.
+extern "C" fn hard_fault_on_fresh_stack(faulted_sp: u32, fpccr_at_entry: u32) -> ! {
     // The exception frame: r0, r1, r2, r3, r12, lr, pc, xPSR; the PC at offset 24.
     let frame_in_ram = faulted_sp.is_multiple_of(4)
         && RAM.contains(&faulted_sp)
@@ -284,14 +364,17 @@ extern "C" fn hard_fault_on_fresh_stack(faulted_sp: u32) -> ! {
     };
     fault(|r| {
         r.pc = pc;
-        let _ = Field {
+        let mut message = Field {
             buf: &mut r.message,
             at: 0,
-        }
-        .write_str(if frame_in_ram {
+        };
+        let _ = message.write_str(if frame_in_ram {
             "HardFault"
         } else {
             "HardFault: stack pointer outside RAM (stack overflow)"
         });
+        if fpccr_at_entry & 1 != 0 {
+            let _ = message.write_str("; LSPACT");
+        }
     })
 }

@@ -13,12 +13,13 @@
 //!   state, recorded reason);
 //! - [`stack`]: the stack's high-water mark (painted at reset).
 //!
-//! The `f405` board adds `flash` (the configuration store's sectors, without the HAL's
-//! panicking read) and `watchdog` (the independent watchdog).
+//! The `f405` board adds `rcc` (the clock start: the crystal measured before the PLL runs
+//! from it), `flash` (the configuration store's sectors, without the HAL's panicking read)
+//! and `watchdog` (the independent watchdog).
 //!
 //! | | `qemu` (netduinoplus2) | `f405` (real STM32F405) |
 //! |---|---|---|
-//! | clocks | none: QEMU 7.2 does not emulate the RCC | HSE 8 MHz, PLL to 168 MHz (HAL) |
+//! | clocks | none: QEMU 7.2 does not emulate the RCC | crystal (8, 12, 16 or 25 MHz, chosen at build time, measured at boot) or HSI, PLL to 168 MHz |
 //! | link | USART1, QEMU's first `-serial` | USART1 on PA9/PA10, 921,600 baud 8N1 |
 //! | cost counter | TIM2, one count per instruction (`-icount shift=0`) | DWT CYCCNT, cycles |
 //! | schedule | lockstep; `free-running` on the semihosting command line | free-running; `lockstep` feature |
@@ -47,6 +48,21 @@
 //! this structure; it would add a framework and a dependency without removing a lock,
 //! because there is none to remove.
 //!
+//! # Sleeping: one WFI, alone in its flash line
+//!
+//! Both boards sleep in [`sleep_until_interrupt`]: a WFI at the start of a 16-byte-aligned
+//! block (one 128-bit line of the flash accelerator) followed by three NOPs, the return and
+//! three more NOPs, all 16-bit instructions filling that line. ES0182's erratum "Debugging
+//! Sleep/Stop mode with WFE/WFI entry" concerns the code after a WFI on wake-up while
+//! DBGMCU_CR's DBG_SLEEP or DBG_STOP is set; the bring-up review found the old loop in the
+//! pattern reported to mis-fetch there (a WFI not 8-byte aligned, interrupts masked, a 32-bit
+//! branch straddling a flash line after it: an intermittent HardFault or wild branch). The
+//! `f405` board now sets those bits only with a debugger attached (`f405`, step 2), so a
+//! flight without a probe runs outside the erratum's conditions, and the placement covers a
+//! bench session with one. Alignment was chosen over running the WFI from RAM (a RAM
+//! function and its copy for one instruction) and over an ISB after it (a 32-bit instruction
+//! itself, fetched right after the wake-up).
+//!
 //! Invariant: `unsafe` appears only in this module tree, each use with a
 //! `// Note(unsafe): ...` saying why it is sound.
 
@@ -64,6 +80,16 @@ pub mod usart1;
 
 #[cfg(all(feature = "qemu", feature = "usart1-pb6-pb7"))]
 compile_error!("`usart1-pb6-pb7` selects the `f405` board's USART1 pins; QEMU has no pins");
+#[cfg(all(
+    feature = "qemu",
+    any(
+        feature = "hse-12mhz",
+        feature = "hse-16mhz",
+        feature = "hse-25mhz",
+        feature = "provision-bor"
+    )
+))]
+compile_error!("the `hse-*` and `provision-bor` features are the `f405` board's; QEMU has no RCC");
 
 #[cfg(feature = "f405")]
 mod f405;
@@ -71,6 +97,8 @@ mod f405;
 pub mod flash;
 #[cfg(feature = "qemu")]
 mod qemu;
+#[cfg(feature = "f405")]
+pub mod rcc;
 #[cfg(feature = "f405")]
 pub mod watchdog;
 
@@ -88,6 +116,50 @@ use crate::app::{Board, Event, Periods, QueueFull};
 use crate::store::NoStore;
 use ibvs_core::ControllerConfig;
 use ibvs_core::wire::ConfigStorage;
+
+// The sleep (module doc, "Sleeping"): `.balign 16` starts the block on a flash line (the
+// assembler raises the section's alignment to 16, which the linker keeps); WFI, three NOPs,
+// the return and three NOPs after it are 16-bit instructions filling that line exactly.
+// Note(unsafe): `global_asm!` is unsafe by nature; the function takes no argument, touches no
+// memory and no register but the ones WFI, NOP and BX LR define, and returns to its caller.
+#[allow(unsafe_code)]
+mod sleep {
+    core::arch::global_asm!(
+        ".section .text.ibvs_sleep_until_interrupt, \"ax\", %progbits",
+        ".balign 16",
+        ".global ibvs_sleep_until_interrupt",
+        ".type ibvs_sleep_until_interrupt, %function",
+        ".thumb_func",
+        "ibvs_sleep_until_interrupt:",
+        "wfi",
+        "nop",
+        "nop",
+        "nop",
+        "bx lr",
+        // The rest of the line: never executed, but what the core may fetch after the
+        // return is not a branch either.
+        "nop",
+        "nop",
+        "nop",
+        ".size ibvs_sleep_until_interrupt, . - ibvs_sleep_until_interrupt",
+    );
+
+    unsafe extern "C" {
+        pub fn ibvs_sleep_until_interrupt();
+    }
+}
+
+/// WFI, alone in a 16-byte-aligned flash line (module doc, "Sleeping"): the core sleeps until
+/// an interrupt is pending (even a masked one).
+#[inline(always)]
+pub fn sleep_until_interrupt() {
+    // Note(unsafe): the function above: no argument, no memory access, returns (AAPCS:
+    // it clobbers nothing the caller keeps).
+    #[allow(unsafe_code)]
+    unsafe {
+        sleep::ibvs_sleep_until_interrupt();
+    }
+}
 
 /// Reset entry (after cortex-m-rt has initialised .data and .bss): the selected board's
 /// start-up, then the application, forever.
@@ -164,7 +236,7 @@ impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
         // interrupt even while PRIMASK masks it, which then runs once unmasked.
         cortex_m::interrupt::disable();
         if !usart1::rx_ready() && !systick::pending() {
-            cortex_m::asm::wfi();
+            sleep_until_interrupt();
         }
         // Note(unsafe): re-enabling interrupts is sound here: we are not inside a critical
         // section (the main loop holds no borrow of interrupt-shared state at this point).

@@ -275,13 +275,18 @@ pub fn log(event: Event) {
 }
 
 fn log_fault(when: &str, r: &FaultRecord) {
+    let s = &r.status;
     hprintln!(
-        "firmware: FAULT {}: {} at {}:{} pc {:#010x}",
+        "firmware: FAULT {}: {} at {}:{} pc {:#010x} CFSR {:#010x} HFSR {:#010x} MMFAR {:#010x} BFAR {:#010x}",
         when,
         FaultRecord::text(&r.message),
         FaultRecord::text(&r.file),
         r.line,
-        r.pc
+        r.pc,
+        s.cfsr,
+        s.hfsr,
+        s.mmfar,
+        s.bfar
     );
 }
 

@@ -1,8 +1,8 @@
 //! The independent watchdog (IWDG) of the `f405` board: a hung main loop resets the MCU.
 //!
 //! Place in the data flow: outside it. Started first thing at boot with the long timeout
-//! ([`Timeout::LONG`]), which covers the boot (the crystal's bounded start, the option
-//! bytes, the store's load); set to the flight timeout ([`Timeout::FLIGHT`]) just before the
+//! ([`Timeout::LONG`]), which covers the boot (the crystal's bounded start and
+//! measurement, the PLL's bounded lock, the store's load); set to the flight timeout ([`Timeout::FLIGHT`]) just before the
 //! main loop, which feeds it once per completed pass (`crate::app::Board::pass_completed`:
 //! at least once per 20 ms period, the tick waking the loop in both schedules); set to the
 //! long timeout again around a configuration store write (a 128 KiB flash erase stalls the
@@ -21,13 +21,17 @@
 //!
 //! The flight timeout is at least 3 periods at the fastest LSI (a pass is about 1 ms, so
 //! only a loop stuck for 3 periods or more resets) and at most 188 ms, well inside the
-//! core's 0.5 s hold before a breakaway. The long one outlasts the longest erase (4 s at x8
-//! parallelism) even with the fastest LSI.
+//! core's 0.5 s hold before a breakaway. The long one outlasts the longest save
+//! (`crate::flash::SAVE_MAX_MS`: a 4 s erase at x8 parallelism and the record's programming)
+//! even with the fastest LSI (checked at compile time below).
 //!
-//! PR and RLR are write-protected; writing 0x5555 to KR opens them, and their update is
-//! complete when SR's PVU and RVU clear (up to five LSI cycles); the next reload (0xAAAA)
-//! then counts from the new reload value. A debugger halting the core freezes the counter
-//! (DBGMCU_APB1_FZ.DBG_IWDG_STOP, set at boot), so breakpoints do not reset the board.
+//! PR and RLR are write-protected; writing 0x5555 to KR opens them. RM0090 ("IWDG status
+//! register"): a prescaler or reload value can be written only while its update flag (SR's
+//! PVU, RVU) is clear, and the update completes when it clears again (up to five LSI
+//! cycles); the next reload (0xAAAA) then counts from the new reload value. So each is
+//! written only after its flag was seen clear (bounded), and the update awaited after.
+//! A debugger halting the core freezes the counter (DBGMCU_APB1_FZ.DBG_IWDG_STOP, set at
+//! boot with a debugger attached), so breakpoints do not reset the board.
 //!
 //! Invariant: nothing here waits unboundedly or panics.
 
@@ -87,10 +91,17 @@ impl Watchdog {
         self.iwdg.kr().write(|w| w.key().feed());
     }
 
-    /// Changes the timeout: feeds first (the old timeout restarts), writes PR and RLR,
-    /// waits (bounded) for the update, then feeds, so the counter restarts at the new
-    /// reload value. True when the update was seen complete; false if it was not within the
-    /// bound (then the new values still take effect, at a later reload).
+    /// Waits (at most [`UPDATE_POLLS`] polls) until the flags `busy` picks from IWDG_SR are
+    /// clear; true when they are.
+    fn settled(&self, busy: impl Fn(&stm32f4xx_hal::pac::iwdg::sr::R) -> bool) -> bool {
+        (0..UPDATE_POLLS).any(|_| !busy(&self.iwdg.sr().read()))
+    }
+
+    /// Changes the timeout: feeds first (the old timeout restarts), writes PR once PVU is
+    /// clear and RLR once RVU is clear, waits for both updates, then feeds, so the counter
+    /// restarts at the new reload value. True when every flag was seen clear in time; false
+    /// if one was not within the bound (a value not written then keeps the old one, and the
+    /// next `set` tries again).
     pub fn set(&mut self, timeout: Timeout) -> bool {
         self.feed();
         // Note(unsafe): 0x5555 is IWDG_KR's documented access key (the PAC names only the
@@ -99,33 +110,31 @@ impl Watchdog {
         self.iwdg
             .kr()
             .write(|w| unsafe { w.key().bits(KEY_ACCESS) });
-        self.iwdg
-            .pr()
-            .write(|w| w.pr().set(timeout.prescaler_code & 0b111));
-        self.iwdg
-            .rlr()
-            .write(|w| w.rl().set(timeout.reload & 0xFFF));
-        let mut polls = 0;
-        let done = loop {
-            let sr = self.iwdg.sr().read();
-            if sr.pvu().bit_is_clear() && sr.rvu().bit_is_clear() {
-                break true;
-            }
-            polls += 1;
-            if polls >= UPDATE_POLLS {
-                break false;
-            }
-        };
+        let pr_free = self.settled(|sr| sr.pvu().bit_is_set());
+        if pr_free {
+            self.iwdg
+                .pr()
+                .write(|w| w.pr().set(timeout.prescaler_code & 0b111));
+        }
+        let rlr_free = self.settled(|sr| sr.rvu().bit_is_set());
+        if rlr_free {
+            self.iwdg
+                .rlr()
+                .write(|w| w.rl().set(timeout.reload & 0xFFF));
+        }
+        let done = self.settled(|sr| sr.pvu().bit_is_set() || sr.rvu().bit_is_set());
         self.feed();
-        done
+        pr_free && rlr_free && done
     }
 }
 
 // What the module doc states, checked at build time: the flight timeout is at least three
 // 20 ms periods at the fastest LSI and under the core's 0.5 s hold at the slowest; the long
-// one outlasts a 4 s erase and the record's programming at the fastest LSI.
+// one outlasts the longest save (a 4 s erase at x8 and the record's programming) at the
+// fastest LSI.
 const _: () = assert!(Timeout::FLIGHT.millis_at(32_000) == 100);
 const _: () = assert!(Timeout::FLIGHT.millis_at(47_000) >= 60);
 const _: () = assert!(Timeout::FLIGHT.millis_at(17_000) <= 200);
 const _: () = assert!(Timeout::LONG.millis_at(32_000) == 8_000);
 const _: () = assert!(Timeout::LONG.millis_at(47_000) >= 5_000);
+const _: () = assert!(Timeout::LONG.millis_at(47_000) > crate::flash::SAVE_MAX_MS);
