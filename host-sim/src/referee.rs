@@ -464,6 +464,40 @@ struct Finding {
     larger_is_worse: bool,
 }
 
+/// The airframe's capsules placed in the tanker frame for one step, and a sphere that holds
+/// them all (a cheap first test: a hazard farther than the sphere's radius cannot be one).
+struct Placed<'a> {
+    capsules: [(Vector3<f64>, Vector3<f64>, &'a Capsule); 3],
+    centre: Vector3<f64>,
+    radius_m: f64,
+}
+
+impl<'a> Placed<'a> {
+    fn new(airframe: &'a Airframe, t: &Truth<'_>) -> Self {
+        let capsules = airframe
+            .capsules()
+            .map(|c| (t.point(&c.a_body_m), t.point(&c.b_body_m), c));
+        let centre = capsules
+            .iter()
+            .fold(Vector3::zeros(), |s, (a, b, _)| s + a + b)
+            / 6.0;
+        let radius_m = capsules.iter().fold(0.0_f64, |r, (a, b, c)| {
+            r.max((a - centre).norm() + c.radius_m)
+                .max((b - centre).norm() + c.radius_m)
+        });
+        Self {
+            capsules,
+            centre,
+            radius_m,
+        }
+    }
+
+    /// Whether a point can be within `reach` of any capsule's surface.
+    fn may_reach(&self, p: &Vector3<f64>, reach: f64) -> bool {
+        (p - self.centre).norm() <= self.radius_m + reach
+    }
+}
+
 impl Referee {
     /// A referee with these limits for this airframe.
     pub fn new(limits: Limits, airframe: Airframe) -> Self {
@@ -505,11 +539,12 @@ impl Referee {
             return None;
         }
         let crossing = self.judge_plane(t, &t.probe_tip_tanker_m);
-        let airframe = self.drogue_on_airframe(t);
+        let placed = Placed::new(&self.airframe, t);
+        let airframe = self.drogue_on_airframe(t, &placed);
+        let hose = self.hose_contact(t, &placed);
+        let tanker = self.tanker_proximity(t, &placed);
         self.track(HazardKind::DrogueOnAirframe, t.time_s, airframe);
-        let hose = self.hose_contact(t);
         self.track(HazardKind::HoseContact, t.time_s, hose);
-        let tanker = self.tanker_proximity(t);
         self.track(HazardKind::TankerProximity, t.time_s, tanker);
         crossing
     }
@@ -684,8 +719,12 @@ impl Referee {
     }
 
     /// The drogue's rim and centre against the radome and the cockpit canopy.
-    fn drogue_on_airframe(&self, t: &Truth<'_>) -> Option<Finding> {
+    fn drogue_on_airframe(&self, t: &Truth<'_>, placed: &Placed<'_>) -> Option<Finding> {
         let l = &self.limits;
+        let centre = t.drogue_centre_tanker_m;
+        if !placed.may_reach(&centre, l.canopy_radius_m + l.airframe_clearance_m) {
+            return None;
+        }
         let axis = t.drogue_axis_tanker;
         // Two unit vectors across the axis, for the rim.
         let helper = if axis.x.abs() < 0.9 {
@@ -695,16 +734,15 @@ impl Referee {
         };
         let u = axis.cross(&helper).normalize();
         let v = axis.cross(&u);
-        let centre = t.drogue_centre_tanker_m;
         let rim = (0..RIM_POINTS).map(|k| {
             let a = std::f64::consts::TAU * k as f64 / RIM_POINTS as f64;
             centre + (u * a.cos() + v * a.sin()) * l.canopy_radius_m
         });
         let mut worst: Option<(f64, Vector3<f64>, &Capsule)> = None;
-        for cap in [&self.airframe.radome, &self.airframe.canopy] {
-            let (a, b) = (t.point(&cap.a_body_m), t.point(&cap.b_body_m));
+        // The probe is not judged against the drogue here: that is the crossing's verdict.
+        for (a, b, cap) in placed.capsules.iter().skip(1) {
             for p in std::iter::once(centre).chain(rim.clone()) {
-                let (d, q) = point_segment(&p, &a, &b);
+                let (d, q) = point_segment(&p, a, b);
                 let gap = d - cap.radius_m;
                 if worst.is_none_or(|w| gap < w.0) {
                     worst = Some((gap, q, cap));
@@ -730,16 +768,13 @@ impl Referee {
     }
 
     /// The hose (less the drogue assembly's end) against the probe, radome and canopy.
-    fn hose_contact(&self, t: &Truth<'_>) -> Option<Finding> {
+    fn hose_contact(&self, t: &Truth<'_>, placed: &Placed<'_>) -> Option<Finding> {
         let l = &self.limits;
         let nodes = t.hose_tanker_m;
         if nodes.len() < 2 {
             return None;
         }
-        let caps = self
-            .airframe
-            .capsules()
-            .map(|c| (c, t.point(&c.a_body_m), t.point(&c.b_body_m)));
+        let reach = l.hose_radius_m + l.hose_clearance_m;
         // The hose's length from the drogue end backwards; the assembly's end is skipped.
         let mut from_drogue = 0.0;
         let mut worst: Option<(f64, Vector3<f64>, &Capsule)> = None;
@@ -752,7 +787,11 @@ impl Referee {
                 continue;
             }
             let end = near_drogue + (near_exit - near_drogue) * (skip / len);
-            for (cap, a, b) in &caps {
+            // A link whose nearest point is beyond the sphere's reach is clear of every part.
+            if point_segment(&placed.centre, &near_exit, &end).0 > placed.radius_m + reach {
+                continue;
+            }
+            for (a, b, cap) in &placed.capsules {
                 let (d, q) = segment_segment(a, b, &near_exit, &end);
                 let gap = d - cap.radius_m - l.hose_radius_m;
                 if worst.is_none_or(|w| gap < w.0) {
@@ -778,17 +817,19 @@ impl Referee {
 
     /// The airframe against the keep-out sphere around the hose exit (the tanker frame's
     /// origin).
-    fn tanker_proximity(&self, t: &Truth<'_>) -> Option<Finding> {
+    fn tanker_proximity(&self, t: &Truth<'_>, placed: &Placed<'_>) -> Option<Finding> {
         let l = &self.limits;
         let origin = Vector3::zeros();
-        let (gap, q, cap) = self
-            .airframe
-            .capsules()
-            .into_iter()
-            .map(|c| {
-                let (d, q) = point_segment(&origin, &t.point(&c.a_body_m), &t.point(&c.b_body_m));
+        if !placed.may_reach(&origin, l.tanker_keep_out_m) {
+            return None;
+        }
+        let (gap, q, cap) = placed
+            .capsules
+            .iter()
+            .map(|(a, b, c)| {
+                let (d, q) = point_segment(&origin, a, b);
                 // `q` is on the axis; the surface is `radius` nearer.
-                (d - c.radius_m, q, c)
+                (d - c.radius_m, q, *c)
             })
             .min_by(|x, y| x.0.total_cmp(&y.0))?;
         (gap < l.tanker_keep_out_m).then(|| Finding {
