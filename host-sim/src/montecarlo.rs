@@ -1235,6 +1235,10 @@ fn circle(radius: f64) -> impl Iterator<Item = (f64, f64)> {
     })
 }
 
+/// The farthest the miss scatter reaches from the drogue centre, m: the crossings that matter
+/// are within a metre or so; a fly-by metres off would shrink them to a dot.
+const SCATTER_REACH_M: f64 = 1.2;
+
 /// Every crossing of the drogue plane, from behind, one marker per crossing and a shape per
 /// verdict, with the capture and strike circles.
 fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), OutputError> {
@@ -1254,13 +1258,30 @@ fn miss_scatter(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), O
         groups[g].2.push((c.offset_m[0], c.offset_m[1]));
     }
     let limits = Limits::default();
+    // The view reaches the farthest crossing up to SCATTER_REACH_M; those beyond are counted
+    // in the title, not drawn off the scale.
     let reach = groups
         .iter()
         .flat_map(|g| g.2.iter())
         .fold(limits.strike_radius_m() * 1.5, |m, p| {
             m.max(p.0.abs()).max(p.1.abs())
         })
+        .min(SCATTER_REACH_M)
         * 1.05;
+    let beyond = groups
+        .iter()
+        .flat_map(|g| g.2.iter())
+        .filter(|p| p.0.abs() > reach || p.1.abs() > reach)
+        .count();
+    let title = if beyond > 0 {
+        format!("{title} ({beyond} beyond {reach:.2} m not drawn)")
+    } else {
+        title.to_string()
+    };
+    let title = title.as_str();
+    for g in &mut groups {
+        g.2.retain(|p| p.0.abs() <= reach && p.1.abs() <= reach);
+    }
     plot::figure(path, (900, 900), |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
@@ -1356,7 +1377,7 @@ fn hazards_plot(path: &Path, title: &str, records: &[RunRecord]) -> Result<(), O
         })
         .collect();
     let trail = crate::world::drogue::NOMINAL_DROGUE_TANKER_M;
-    let (mut x0, mut x1) = (trail[0] - 20.0, 2.0_f64);
+    let (mut x0, mut x1) = (trail[0] - 20.0, 6.0_f64);
     let mut half = 6.0_f64;
     for (_, p) in &points {
         x0 = x0.min(p[0] - 1.0);

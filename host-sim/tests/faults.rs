@@ -16,6 +16,9 @@
 //!
 
 use host_sim::scenario::{CameraPlacement, NavModel, ScenarioFile};
+use std::collections::BTreeSet;
+
+use host_sim::referee::HazardKind;
 use host_sim::sim::{Outcome, Run, run, run_with_faults};
 use host_sim::world::faults::{Actuator, FaultKind, SimFault};
 use ibvs_core::controller::StatusFlags;
@@ -88,14 +91,19 @@ fn assert_docked(f: &Flown, what: &str) {
     assert!(f.run.verdict.success(), "{what}: {:?}", f.run.verdict);
 }
 
-/// Broke away for `reason`, and the referee saw no hazard in the 15 s it watched the
-/// breakaway (in particular no crossing of the plane through the basket).
-fn assert_broke_away(f: &Flown, reason: &str, what: &str) {
+/// Broke away for `reason`, and the referee saw exactly the hazards of `known_gap` in the 15 s
+/// it watched the breakaway: none for a safe breakaway (in particular no crossing of the plane
+/// through the basket). A non-empty `known_gap` is a breakaway that is not yet safe, measured
+/// and listed in `docs/faults.md`, "Known gaps": the test fails when it changes either way, so
+/// that the list stays true.
+fn assert_broke_away(f: &Flown, reason: &str, what: &str, known_gap: &[HazardKind]) {
     let s = &f.run.summary;
     assert_eq!(s.outcome, Outcome::Aborted, "{what}: {s:?}");
     assert_eq!(s.breakaway_reason.as_deref(), Some(reason), "{what}: {s:?}");
-    assert!(
-        f.run.verdict.safe(),
+    let seen: BTreeSet<HazardKind> = f.run.verdict.hazards.iter().map(|h| h.kind).collect();
+    assert_eq!(
+        seen,
+        known_gap.iter().copied().collect::<BTreeSet<_>>(),
         "{what}: {s:?} {:?}",
         f.run.verdict.hazards
     );
@@ -133,7 +141,7 @@ fn image_dropouts_up_to_the_hold_limit_are_bridged_and_longer_ones_break_away() 
             steps(n),
         )]);
         let what = format!("dropout of {n} steps");
-        assert_broke_away(&f, "MeasurementLost", &what);
+        assert_broke_away(&f, "MeasurementLost", &what, &[]);
         let at = breakaway_at(&f.run).expect("breaks away");
         assert!(
             (at - (ONSET_S + steps(HOLD_LIMIT))).abs() < 1e-9,
@@ -209,7 +217,7 @@ fn led_occlusion_down_to_three_leds_keeps_tracking_and_fewer_are_held_then_break
         4.0,
         1.0,
     )]);
-    assert_broke_away(&f, "MeasurementLost", "all LEDs hidden for 1 s");
+    assert_broke_away(&f, "MeasurementLost", "all LEDs hidden for 1 s", &[]);
     assert_eq!(f.counters.measurement_held_steps, HOLD_LIMIT);
     // Three LEDs (the upper ones, 5..7) to the end: the camera set back on the nose keeps
     // them in the image until contact (at the probe tip they left it just before 0.7 m).
@@ -250,7 +258,7 @@ fn latency_spikes_are_held_then_flown_on_late_frames_and_long_ones_break_away() 
         ONSET_S,
         0.1,
     )]);
-    assert_broke_away(&f, "MeasurementLost", "0.6 s spike");
+    assert_broke_away(&f, "MeasurementLost", "0.6 s spike", &[]);
     assert_eq!(breakaway_at(&f.run), Some(ONSET_S + steps(HOLD_LIMIT)));
 }
 
@@ -280,7 +288,7 @@ fn a_frozen_measurement_is_bridged_up_to_the_limits_then_breaks_away() {
                 duration_s,
             )]);
             let what = format!("frozen for {duration_s} s at {range_m} m");
-            assert_broke_away(&f, "MeasurementLost", &what);
+            assert_broke_away(&f, "MeasurementLost", &what, &[]);
             assert_eq!(f.run.contact, None, "{what}");
             // Frozen frames keep being rejected (and counted) after the breakaway.
             assert!(f.counters.frozen > HOLD_LIMIT, "{what}");
@@ -309,9 +317,15 @@ fn navigation_nan_is_held_up_to_the_limit_then_breaks_away_open_loop() {
     for n in [HOLD_LIMIT + 1, 100] {
         let f = fly(&[SimFault::at_time(FaultKind::NavNaN, ONSET_S, steps(n))]);
         let what = format!("NaN navigation for {n} steps");
-        assert_broke_away(&f, "NavLost", &what);
+        // Open loop for 75 steps the receiver rolls off into an upset (known gap).
+        let gap: &[HazardKind] = if n == 100 { &[HazardKind::Upset] } else { &[] };
+        assert_broke_away(&f, "NavLost", &what, gap);
         assert_eq!(breakaway_at(&f.run), Some(ONSET_S + steps(HOLD_LIMIT)));
-        // Breakaway without navigation flies open loop: trim surfaces, throttle cut.
+        // Breakaway without navigation flies open loop: trim surfaces, throttle cut, every
+        // step of the NaN after the hold. (After 100 steps the receiver has left the
+        // navigation's envelope by the time the NaN ends, so it stays open loop: the upset of
+        // the known gap above.)
+        let nan_ends = ONSET_S + steps(n);
         let open: Vec<_> = f
             .run
             .samples
@@ -319,7 +333,7 @@ fn navigation_nan_is_held_up_to_the_limit_then_breaks_away_open_loop() {
             .filter(|s| s.output.status.contains(StatusFlags::OPEN_LOOP))
             .collect();
         assert_eq!(
-            open.len() as u32,
+            open.iter().filter(|s| s.time_s < nan_ends - 1e-9).count() as u32,
             n - HOLD_LIMIT,
             "{what}: open loop while NaN"
         );
@@ -357,10 +371,12 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     // The refuelling procedure's faster lateral design needs more aileron rate than 2.9 deg/s
     // for the move to the station (2 m across): the drogue leaves the image, breakaway. The
     // paper's slower design flies it through.
+    // Known gap: the breakaway from there pushes over to below 0 g, then pulls 3 g.
     assert_broke_away(
         &slow(Actuator::Aileron, 0.05),
         "MeasurementLost",
         "aileron at 2.9 deg/s",
+        &[HazardKind::Upset],
     );
     assert_docked(
         &fly_paper(&[SimFault::at_time(
@@ -382,35 +398,46 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     // station's integral and the swing feed-forward it lost the drogue at 5.62 s; with the
     // refuelling gains designed at the nominal cg it ran through the station at 6.74 s and
     // crossed the plane 12.0 m from the centre.)
-    let cases = [
+    // Known gaps (the referee, watching 15 s of each breakaway): without the aileron, or
+    // with a slow elevator or aileron, the breakaway ends in an upset (load factor below 0 g
+    // or above 2 g); with the throttle stuck nothing stops the closing, and the receiver flies
+    // past the drogue (1.969 m off, 1.77 m above it) into the tanker's keep-out sphere.
+    let cases: [(Flown, &str, &str, &[HazardKind]); 5] = [
         (
             stuck(Actuator::Elevator),
             "MeasurementLost",
             "elevator stuck",
+            &[],
         ),
-        (stuck(Actuator::Aileron), "NavLost", "aileron stuck"),
+        (
+            stuck(Actuator::Aileron),
+            "NavLost",
+            "aileron stuck",
+            &[HazardKind::Upset],
+        ),
         (
             stuck(Actuator::Throttle),
             "StationOverrun",
             "throttle stuck",
+            &[HazardKind::TankerProximity],
         ),
         (
             slow(Actuator::Elevator, 0.05),
             "MeasurementLost",
             "elevator at 2.9 deg/s",
+            &[HazardKind::Upset],
         ),
         (
             slow(Actuator::Aileron, 0.01),
             "NavLost",
             "aileron at 0.6 deg/s",
+            &[HazardKind::Upset],
         ),
     ];
-    for (f, reason, what) in &cases {
-        assert_broke_away(f, reason, what);
-        // With the throttle stuck nothing stops the closing: the probe passes the drogue plane
-        // after the breakaway, more than 1 m from the centre (measured 1.969 m off, 1.77 m
-        // above it; the canopy's radius is 0.31 m; `examples/fault_figures.rs`). No other
-        // case reaches it.
+    for (f, reason, what, gap) in &cases {
+        assert_broke_away(f, reason, what, gap);
+        // Only the stuck throttle reaches the drogue plane, after its breakaway, more than
+        // 1 m from the centre.
         if let Some(c) = f.run.contact {
             assert!(
                 *what == "throttle stuck",
@@ -423,8 +450,26 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
 }
 
 #[test]
-fn a_slow_throttle_does_not_end_in_an_unsafe_state() {
-    for rate_per_s in [0.01, 0.05] {
+fn a_slow_throttle_breaks_away_on_overspeed_and_the_referee_sees_where_it_goes() {
+    // Known gap: the receiver cannot slow down. It closes faster than the overspeed limit
+    // (2.3 m/s) and breaks away, but the breakaway cannot stop it either: at 0.01/s the probe
+    // enters the coupling at 3.99 m/s (a hard contact) and the receiver flies on into the
+    // tanker's keep-out sphere; at 0.05/s it passes the drogue 1.649 m off, the drogue and
+    // the hose reach the radome, and it too enters the keep-out sphere.
+    for (rate_per_s, gap) in [
+        (
+            0.01,
+            &[HazardKind::HardContact, HazardKind::TankerProximity][..],
+        ),
+        (
+            0.05,
+            &[
+                HazardKind::DrogueOnAirframe,
+                HazardKind::HoseContact,
+                HazardKind::TankerProximity,
+            ][..],
+        ),
+    ] {
         let f = fly(&[SimFault::at_time(
             FaultKind::ActuatorRateLimited {
                 actuator: Actuator::Throttle,
@@ -433,10 +478,7 @@ fn a_slow_throttle_does_not_end_in_an_unsafe_state() {
             0.0,
             f64::INFINITY,
         )]);
-        // The receiver cannot slow down: it closes faster than the overspeed limit (2.3 m/s)
-        // and breaks away, passing the drogue clear of the canopy (measured 1.649 m from the
-        // centre, 1.34 m above it, at 0.05/s).
-        assert_broke_away(&f, "Overspeed", &format!("throttle at {rate_per_s}/s"));
+        assert_broke_away(&f, "Overspeed", &format!("throttle at {rate_per_s}/s"), gap);
     }
 }
 
