@@ -11,7 +11,13 @@
 //!   (one per control period: the hose in one RK4 step, the gusts in two samples), in the
 //!   `level2` preset's environment;
 //! - `physics/camera_frame`: one LED-camera frame of the drogue (projection, noise, circle
-//!   fit), once per control period.
+//!   fit), once per control period;
+//! - `physics/receiver_rk4_dispersed`: `receiver_rk4` for a receiver whose plant factors are
+//!   not 1.0 (the elevator's and static stability's split from their tables: two lookups more
+//!   per evaluation), the per-step cost of a plant dispersion;
+//! - `physics/receiver_trim` and `physics/receiver_trim_dispersed`: the straight-and-level
+//!   trim of the nominal and of that dispersed receiver at the refuelling condition, the
+//!   per-run cost (a run trims the true receiver, and the nominal one when the two differ).
 //!
 //! Each iteration starts from the same state (a clone made outside the timed region), so the
 //! figures do not drift with the simulated time. Run with
@@ -20,7 +26,7 @@
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use host_sim::receiver::{F16, Wind};
+use host_sim::receiver::{F16, FACTORS, ReceiverPlant, Wind};
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::build_world;
 use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS};
@@ -48,6 +54,15 @@ fn benches(c: &mut Criterion) {
     let refuelling_world = build_world(&refuelling, &model, &trim, REFUELLING_DT_S).expect("world");
     let x0 = trim.state;
     let cmd = trim.command;
+    // Every factor off 1.0: the middle of the upper half of its limits' span near 1.
+    let mut plant = ReceiverPlant::NOMINAL;
+    for (info, factor) in FACTORS.iter().zip(plant.values_mut()) {
+        *factor = 1.0 + 0.1 * (info.limits.max - 1.0).min(1.0);
+    }
+    let dispersed = F16::with_plant(NOMINAL_XCG, &plant).expect("valid plant");
+    let dispersed_trim = dispersed
+        .trim_straight_level(REFUELLING_SPEED_MPS, REFUELLING_ALTITUDE_M)
+        .expect("trim");
 
     let mut group = c.benchmark_group("physics");
     group.bench_function("receiver_rk4", |b| {
@@ -86,6 +101,30 @@ fn benches(c: &mut Criterion) {
             BatchSize::SmallInput,
         );
     });
+    group.bench_function("receiver_rk4_dispersed", |b| {
+        b.iter_batched_ref(
+            || dispersed_trim.state,
+            |x| {
+                dispersed.step_rk4(
+                    x,
+                    black_box(&dispersed_trim.command),
+                    &Wind::default(),
+                    DT_S,
+                )
+            },
+            BatchSize::SmallInput,
+        );
+    });
+    for (name, receiver) in [
+        ("receiver_trim", &model),
+        ("receiver_trim_dispersed", &dispersed),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                receiver.trim_straight_level(black_box(REFUELLING_SPEED_MPS), REFUELLING_ALTITUDE_M)
+            });
+        });
+    }
     group.finish();
 }
 

@@ -28,6 +28,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use crate::receiver::{FACTORS, ReceiverPlant, ReceiverPlantRanges};
 use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
 use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
 use crate::world::camera::CameraParams;
@@ -182,13 +183,18 @@ pub struct CameraSection {
     pub drop_probability: f64,
 }
 
-/// `[receiver]`.
+/// `[receiver]`: the true receiver, which the controller's design does not know.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ReceiverSection {
     /// Centre of gravity, fraction of the mean aerodynamic chord (the paper's gains are
     /// designed at 0.35, the refuelling procedure's at 0.40; the receiver trims at this one).
     pub xcg: f64,
+    /// Factors on the true aircraft's aerodynamics, mass, inertia, actuators and engine, each
+    /// a key of this table (`elevator_effectiveness = 0.9`, ...; every one 1.0 by default:
+    /// [`ReceiverPlant`], limits in [`crate::receiver::FACTORS`]).
+    #[serde(flatten)]
+    pub plant: ReceiverPlant,
 }
 
 /// `[flight]`: the flight condition of the tanker and the trimmed receiver
@@ -252,6 +258,10 @@ pub struct DispersionSection {
     /// Altitude of the flight condition, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub altitude_m: Option<[f64; 2]>,
+    /// `[dispersion.receiver]`: ranges of the receiver's plant factors, keyed like
+    /// `[receiver]`'s (`mass_scale = [0.85, 1.25]`, ...).
+    #[serde(skip_serializing_if = "ReceiverPlantRanges::is_empty")]
+    pub receiver: ReceiverPlantRanges,
 }
 
 impl DispersionSection {
@@ -338,7 +348,10 @@ impl Default for ScenarioFile {
                 rate_hz: 50.0,
                 drop_probability: 0.0,
             },
-            receiver: ReceiverSection { xcg: NOMINAL_XCG },
+            receiver: ReceiverSection {
+                xcg: NOMINAL_XCG,
+                plant: ReceiverPlant::NOMINAL,
+            },
             flight: FlightSection {
                 airspeed_mps: FlightCondition::DEFAULT.airspeed_mps,
                 altitude_m: FlightCondition::DEFAULT.altitude_m,
@@ -543,6 +556,41 @@ macro_rules! envelope_dispersion {
         "airspeed_mps = [100.0, 170.0]\naltitude_m = [500.0, 8000.0]\n"
     };
 }
+
+/// The receiver's plant dispersion of the refuelling presets (`docs/models.md`, "Receiver plant
+/// dispersions", gives each range's source): a `[dispersion.receiver]` table, to be appended
+/// after the rest of a preset's `[dispersion]` keys. Every range contains the nominal 1.0.
+macro_rules! receiver_plant_dispersion {
+    () => {
+        concat!(
+            "[dispersion.receiver]\n",
+            "elevator_effectiveness = [0.85, 1.15]\n",
+            "aileron_effectiveness = [0.8, 1.2]\n",
+            "rudder_effectiveness = [0.8, 1.2]\n",
+            "roll_damping_scale = [0.8, 1.2]\n",
+            "pitch_damping_scale = [0.7, 1.3]\n",
+            "yaw_damping_scale = [0.7, 1.3]\n",
+            "cm_alpha_scale = [0.8, 1.2]\n",
+            "cn_beta_scale = [0.8, 1.2]\n",
+            "cl_beta_scale = [0.8, 1.2]\n",
+            "mass_scale = [0.85, 1.25]\n",
+            "jx_scale = [0.9, 1.4]\n",
+            "jy_scale = [0.9, 1.15]\n",
+            "jz_scale = [0.9, 1.15]\n",
+            "elevator_rate_limit_scale = [0.8, 1.1]\n",
+            "aileron_rate_limit_scale = [0.8, 1.1]\n",
+            "rudder_rate_limit_scale = [0.8, 1.1]\n",
+            "elevator_bandwidth_scale = [0.75, 1.25]\n",
+            "aileron_bandwidth_scale = [0.75, 1.25]\n",
+            "rudder_bandwidth_scale = [0.75, 1.25]\n",
+            "engine_time_constant_scale = [0.8, 1.5]\n",
+        )
+    };
+}
+
+/// The receiver's plant dispersion of the refuelling presets (the `receiver_plant_dispersion!`
+/// macro's TOML): a `[dispersion.receiver]` table to append to a scenario file.
+pub const RECEIVER_PLANT_DISPERSION: &str = receiver_plant_dispersion!();
 
 /// The RMS gust intensity range of `mil-level2`: MIL-F-8785C's at probability of
 /// exceedance 1e-2 at 3000 m ([`crate::world::turbulence::mil_f_8785c_sigma_mps`], 1.84 m/s)
@@ -788,6 +836,10 @@ impl ScenarioFile {
             XCG_RANGE.1,
             "0.25..=0.45",
         )?;
+        for (info, &factor) in FACTORS.iter().zip(self.receiver.plant.values()) {
+            let l = info.limits;
+            range(info.receiver_key, factor, l.min, l.max, l.text)?;
+        }
         self.validate_flight()?;
         self.navigation
             .ins
@@ -917,6 +969,12 @@ impl ScenarioFile {
                 "0..=50",
             )?;
         }
+        for (info, r) in FACTORS.iter().zip(d.receiver.values()) {
+            if let Some(r) = *r {
+                let l = info.limits;
+                range_pair(info.dispersion_key, r, l.min, l.max, l.text)?;
+            }
+        }
         Ok(())
     }
 
@@ -981,6 +1039,12 @@ impl ScenarioFile {
         }
         if let Some(r) = d.altitude_m {
             f.flight.altitude_m = uniform(SALT_ALTITUDE, r);
+        }
+        let plant = f.receiver.plant.values_mut();
+        for ((info, r), factor) in FACTORS.iter().zip(d.receiver.values()).zip(plant) {
+            if let Some(r) = *r {
+                *factor = uniform(salt_of(info.receiver_key), r);
+            }
         }
         f
     }
@@ -1051,6 +1115,7 @@ impl ScenarioFile {
             wake: f.tanker_wake.enabled.then(WakeParams::default),
             bow_wave: f.bow_wave.enabled,
             xcg: f.receiver.xcg,
+            receiver_plant: f.receiver.plant,
             camera_body_m: c.placement.position_body_m(),
             navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
             tanker: crate::world::Tanker {
@@ -1111,6 +1176,7 @@ fn splitmix64(x: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::receiver::FACTOR_COUNT;
     use ibvs_core::{OuterLaw, Procedure};
 
     #[test]
@@ -1542,5 +1608,183 @@ mod tests {
             cfg.probe_tip_body_m, nominal,
             "the probe tip itself is known"
         );
+    }
+
+    /// `level2` with the receiver's plant dispersion appended.
+    fn level2_with_plant_dispersion() -> ScenarioFile {
+        let level2 = PRESETS.iter().find(|p| p.0 == "level2").map_or("", |p| p.2);
+        ScenarioFile::parse(
+            &format!("{level2}{RECEIVER_PLANT_DISPERSION}"),
+            "level2-plant",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn receiver_plant_keys_reach_the_scenario_and_round_trip() {
+        let f = ScenarioFile::parse(
+            "[receiver]\nxcg = 0.3\nmass_scale = 1.1\nelevator_effectiveness = 0.9\njy_scale = 1\n",
+            "plant",
+        )
+        .unwrap();
+        let plant = f.scenario().receiver_plant;
+        assert_eq!(
+            (
+                plant.mass_scale,
+                plant.elevator_effectiveness,
+                plant.jy_scale
+            ),
+            (1.1, 0.9, 1.0)
+        );
+        assert_eq!(
+            plant.aileron_effectiveness, 1.0,
+            "a key not given is nominal"
+        );
+        assert_eq!(f.scenario().xcg, 0.3);
+        let back = ScenarioFile::parse(&f.to_toml(), "round trip").unwrap();
+        assert_eq!(back, f);
+        assert!(
+            ScenarioFile::default()
+                .scenario()
+                .receiver_plant
+                .is_nominal()
+        );
+        // Every factor is written out.
+        let text = ScenarioFile::default().to_toml();
+        for info in FACTORS {
+            assert!(
+                text.contains(&format!("{} = 1.0", info.name)),
+                "{}",
+                info.name
+            );
+        }
+    }
+
+    #[test]
+    fn a_bad_receiver_plant_key_names_the_key_and_the_range() {
+        for (text, key, what) in [
+            (
+                "[receiver]\nelevator_effectiveness = 5.0\n",
+                "receiver.elevator_effectiveness",
+                "0.1..=3",
+            ),
+            (
+                "[receiver]\nmass_scale = nan\n",
+                "receiver.mass_scale",
+                "0.5..=2",
+            ),
+            (
+                "[receiver]\nelevator_bandwidth_scale = 2.5\n",
+                "receiver.elevator_bandwidth_scale",
+                "0.1..=2",
+            ),
+            (
+                "[receiver]\nyaw_damping_scale = -0.5\n",
+                "receiver.yaw_damping_scale",
+                "0..=3",
+            ),
+            ("[receiver]\nmass = 1.1\n", "mass", "unknown field"),
+            (
+                "[dispersion.receiver]\nmass_scale = [1.3, 0.9]\n",
+                "dispersion.receiver.mass_scale",
+                "minimum exceeds",
+            ),
+            (
+                "[dispersion.receiver]\njy_scale = [0.4, 1.0]\n",
+                "dispersion.receiver.jy_scale",
+                "0.5..=2",
+            ),
+            (
+                "[dispersion.receiver]\nengine_time_constant_scale = [1.0, 4.5]\n",
+                "dispersion.receiver.engine_time_constant_scale",
+                "0.25..=4",
+            ),
+            (
+                "[dispersion.receiver]\nmass = [1.0, 1.1]\n",
+                "mass",
+                "unknown field",
+            ),
+        ] {
+            let e = ScenarioFile::parse(text, "bad").unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains(what), "{text}: {e}");
+        }
+    }
+
+    /// The refuelling presets' plant dispersion: every factor, each range around the nominal,
+    /// every draw inside its range, a function of the file and the run index, spread over the
+    /// range.
+    #[test]
+    fn the_plant_dispersion_draws_every_factor_in_its_range() {
+        let f = level2_with_plant_dispersion();
+        let ranges = f.dispersion.receiver;
+        let mut seen = vec![Vec::new(); FACTOR_COUNT];
+        for i in 0..200 {
+            let run = f.dispersed(i);
+            assert_eq!(run, f.dispersed(i), "a function of the index");
+            run.validate().unwrap();
+            let plant = run.scenario().receiver_plant;
+            for (j, (r, &v)) in ranges.values().into_iter().zip(plant.values()).enumerate() {
+                let [lo, hi] = r.expect("every factor dispersed");
+                assert!(lo <= 1.0 && 1.0 <= hi && lo < hi, "{}", FACTORS[j].name);
+                assert!((lo..=hi).contains(&v), "run {i}: {} = {v}", FACTORS[j].name);
+                seen[j].push(v);
+            }
+        }
+        for (j, draws) in seen.iter().enumerate() {
+            let [lo, hi] = ranges.values()[j].unwrap();
+            let (min, max) = draws
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+            let spread = 0.05 * (hi - lo);
+            assert!(
+                min < lo + spread && max > hi - spread,
+                "{}: {min}..{max}",
+                FACTORS[j].name
+            );
+        }
+        // Distinct streams: no two factors draw the same sequence.
+        for a in 0..FACTOR_COUNT {
+            for b in a + 1..FACTOR_COUNT {
+                assert_ne!(seen[a], seen[b], "{} {}", FACTORS[a].name, FACTORS[b].name);
+            }
+        }
+    }
+
+    /// Adding the plant's table changes no other draw; removing one factor's range changes
+    /// no other factor's draw and leaves that factor at the file's value.
+    #[test]
+    fn each_plant_factor_has_its_own_stream() {
+        let with_plant = level2_with_plant_dispersion();
+        let level2 = ScenarioFile::load("level2").unwrap();
+        let mut fewer = with_plant.clone();
+        fewer.dispersion.receiver.mass_scale = None;
+        fewer.receiver.plant.mass_scale = 1.1;
+        for i in [0, 7, 1000] {
+            let (a, b) = (with_plant.dispersed(i), level2.dispersed(i));
+            assert_eq!(
+                ScenarioFile {
+                    receiver: b.receiver.clone(),
+                    name: b.name.clone(),
+                    ..a.clone()
+                },
+                b,
+                "run {i}: only the receiver's plant differs"
+            );
+            assert!(b.receiver.plant.is_nominal());
+            let c = fewer.dispersed(i);
+            assert_eq!(c.receiver.plant.mass_scale, 1.1);
+            for (j, (x, y)) in a
+                .receiver
+                .plant
+                .values()
+                .into_iter()
+                .zip(c.receiver.plant.values())
+                .enumerate()
+            {
+                if FACTORS[j].name != "mass_scale" {
+                    assert_eq!(x, y, "run {i}: {}", FACTORS[j].name);
+                }
+            }
+        }
     }
 }

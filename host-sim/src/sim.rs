@@ -20,7 +20,9 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::docking::Contact;
-use crate::receiver::{F16, ModelError, ReceiverCommand, ReceiverState, Trim, TrimError};
+use crate::receiver::{
+    F16, ModelError, ReceiverCommand, ReceiverPlant, ReceiverState, Trim, TrimError,
+};
 use crate::referee::{Airframe, CrossingRecord, FlightTruth, Limits, Referee, Truth, Verdict};
 use crate::synthesis::{
     CONTROL_PERIOD_S, NOMINAL_XCG, PROBE_TIP_BODY_M, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS,
@@ -91,6 +93,11 @@ pub struct Scenario {
     pub tanker: Tanker,
     /// Receiver cg, fraction of the mean chord.
     pub xcg: f64,
+    /// The true receiver's factors on its aerodynamics, mass, inertia, actuators and engine
+    /// ([`ReceiverPlant`]; nominal: the aircraft the controller was designed on). The receiver
+    /// trims and flies with them; the design side (the gains, the navigation's reference
+    /// trim, the camera's mount) stays the nominal aircraft's.
+    pub receiver_plant: ReceiverPlant,
     /// Drogue model: `None` holds it at its nominal trail. At another flight condition than
     /// the default its air data (density, viscosity) are replaced by the condition's
     /// ([`FlightCondition::hose_params`]).
@@ -141,6 +148,7 @@ impl Scenario {
                 altitude_m: REFUELLING_ALTITUDE_M,
             },
             xcg: NOMINAL_XCG,
+            receiver_plant: ReceiverPlant::NOMINAL,
             hose: None,
             camera: CameraChoice::Ideal(CameraParams::default()),
             camera_body_m: SET_BACK_CAMERA_BODY_M.map(f64::from).into(),
@@ -529,7 +537,7 @@ pub fn run_observed(
             "duration, substeps and after_event_s must be positive",
         ));
     }
-    let model = F16::new(s.xcg)?;
+    let model = F16::with_plant(s.xcg, &s.receiver_plant)?;
     let flight = valid_flight(s, &model)?;
     let trim_at = |m: &F16, c: FlightCondition| {
         m.trim_straight_level(c.airspeed_mps, c.altitude_m)
@@ -540,12 +548,13 @@ pub fn run_observed(
             })
     };
     let trim = trim_at(&model, flight)?;
-    // The navigation reports perturbations from the trim of the nominal cg at the run's
-    // flight condition: at another cg the receiver trims at a different attitude, which it
-    // then sees. The camera is fixed to the airframe, level at the trim of the installation's
-    // design (nominal cg, the default condition): at another condition it looks up or down by
-    // the difference, which the controller's geometry takes out.
-    let design_trim = if s.xcg == NOMINAL_XCG {
+    // The navigation reports perturbations from the trim of the design aircraft (the nominal
+    // cg and plant) at the run's flight condition: at another cg, or with another plant, the
+    // receiver trims at a different attitude, elevator and throttle, which it then sees. The
+    // camera is fixed to the airframe, level at the trim of the installation's design (nominal
+    // cg and plant, the default condition): at another condition it looks up or down by the
+    // difference, which the controller's geometry takes out.
+    let design_trim = if s.xcg == NOMINAL_XCG && s.receiver_plant.is_nominal() {
         trim
     } else {
         trim_at(&F16::new(NOMINAL_XCG)?, flight)?

@@ -4,7 +4,8 @@
 //! paper authors' simulation): each surface is a first-order lag of bandwidth 20.2 rad/s
 //! toward its command clamped to the position limit, with its rate limited,
 //! `d(delta)/dt = clamp(w (clamp(cmd, +/-limit) - delta), +/-rate_limit)`; the throttle is
-//! clamped to its range and drives the engine's power lag (see `engine.rs`).
+//! clamped to its range and drives the engine's power lag (see `engine.rs`). The aircraft flies
+//! each surface with its rate limit and bandwidth times the plant's factors (`plant.rs`).
 //! Invariants: parameters are SI (rad, rad/s) and pass [`ActuatorParams::validate`] before the
 //! model uses them, so the clamps cannot panic. A surface that starts inside its limits stays
 //! inside them under exact integration; with RK4 this holds for steps below about 1/bandwidth.
@@ -12,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::data::{ActuatorData, ModelError, require_positive};
+use super::plant::ReceiverPlant;
 use super::state::{ReceiverCommand, Surfaces};
 
 /// Position and rate limits of one control surface.
@@ -107,20 +109,66 @@ impl ActuatorParams {
     pub fn clamp_throttle(&self, throttle: f64) -> f64 {
         throttle.clamp(self.throttle_min, self.throttle_max)
     }
+}
+
+/// One surface's actuator as the aircraft flies it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SurfaceServo {
+    /// Position limit (the data's) and rate limit (the data's times the plant's factor).
+    limits: SurfaceLimits,
+    /// Lag bandwidth, rad/s (the data's times the plant's factor).
+    bandwidth_radps: f64,
+}
+
+/// The three surface actuators as the aircraft flies them: the data's ([`ActuatorParams`])
+/// with a plant's factors on each rate limit and bandwidth. At the nominal plant they are the
+/// data's exactly (each factor multiplies, and 1.0 multiplies exactly).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct FlownSurfaces {
+    elevator: SurfaceServo,
+    aileron: SurfaceServo,
+    rudder: SurfaceServo,
+}
+
+impl FlownSurfaces {
+    /// The actuators of `params` with the factors of `plant`.
+    pub(crate) fn new(params: &ActuatorParams, plant: &ReceiverPlant) -> Self {
+        let servo = |limits: SurfaceLimits, rate_scale: f64, bandwidth_scale: f64| SurfaceServo {
+            limits: SurfaceLimits {
+                rate_limit_radps: limits.rate_limit_radps * rate_scale,
+                ..limits
+            },
+            bandwidth_radps: params.bandwidth_radps * bandwidth_scale,
+        };
+        Self {
+            elevator: servo(
+                params.elevator,
+                plant.elevator_rate_limit_scale,
+                plant.elevator_bandwidth_scale,
+            ),
+            aileron: servo(
+                params.aileron,
+                plant.aileron_rate_limit_scale,
+                plant.aileron_bandwidth_scale,
+            ),
+            rudder: servo(
+                params.rudder,
+                plant.rudder_rate_limit_scale,
+                plant.rudder_bandwidth_scale,
+            ),
+        }
+    }
 
     /// Surface rates for `command` with the surfaces at `actual` (each field in rad/s).
-    pub fn surface_rates_radps(&self, command: &ReceiverCommand, actual: &Surfaces) -> Surfaces {
-        let w = self.bandwidth_radps;
+    pub(crate) fn rates_radps(&self, command: &ReceiverCommand, actual: &Surfaces) -> Surfaces {
+        let rate = |s: &SurfaceServo, command_rad: f64, actual_rad: f64| {
+            s.limits
+                .rate_radps(s.bandwidth_radps, command_rad, actual_rad)
+        };
         Surfaces {
-            elevator_rad: self
-                .elevator
-                .rate_radps(w, command.elevator_rad, actual.elevator_rad),
-            aileron_rad: self
-                .aileron
-                .rate_radps(w, command.aileron_rad, actual.aileron_rad),
-            rudder_rad: self
-                .rudder
-                .rate_radps(w, command.rudder_rad, actual.rudder_rad),
+            elevator_rad: rate(&self.elevator, command.elevator_rad, actual.elevator_rad),
+            aileron_rad: rate(&self.aileron, command.aileron_rad, actual.aileron_rad),
+            rudder_rad: rate(&self.rudder, command.rudder_rad, actual.rudder_rad),
         }
     }
 }

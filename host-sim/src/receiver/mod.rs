@@ -9,7 +9,8 @@
 //! x forward, y right, z down and NED position; English units and degrees exist only inside, and
 //! are converted with the named constants of `units.rs`. Stepping the model never allocates.
 //!
-//! Use: [`F16::new`] builds the model, [`F16::trim_straight_level`] gives a [`Trim`] whose
+//! Use: [`F16::new`] builds the nominal model ([`F16::with_plant`] a true aircraft whose
+//! [`ReceiverPlant`] factors differ from the design's), [`F16::trim_straight_level`] gives a [`Trim`] whose
 //! `state` and `command` hold steady flight, [`F16::step_rk4`] integrates, and
 //! [`F16::derivatives`] exposes the vector field (order: [`state_index`]).
 
@@ -20,6 +21,7 @@ mod data;
 mod engine;
 mod interp;
 mod model;
+mod plant;
 mod state;
 mod trim;
 mod units;
@@ -29,6 +31,10 @@ pub use aero::ReferenceGeometry;
 pub use atmosphere::AirProperties;
 pub use data::ModelError;
 pub use model::{AirData, BodyLoads, F16};
+pub use plant::{
+    FACTOR_COUNT, FACTORS, FactorInfo, FactorLimits, FactorSlot, PlantFactors, ReceiverPlant,
+    ReceiverPlantRanges,
+};
 pub use state::{
     ReceiverCommand, ReceiverState, STATE_DIM, StateVector, Surfaces, Wind, state_index,
 };

@@ -9,20 +9,24 @@
 //! - `J dw/dt = M_aero - w x (J w + h_engine)`, `J = [[Jx,0,-Jxz],[0,Jy,0],[-Jxz,0,Jz]]`,
 //!   `h_engine` along body x;
 //! - 3-2-1 Euler-angle kinematics; `dp_ned/dt = C_nb v_b`;
-//! - engine power lag and surface actuators as in `engine.rs` and `actuators.rs`.
+//! - engine power lag and surface actuators as in `engine.rs` and `actuators.rs`;
+//! - the true aircraft's [`ReceiverPlant`] factors (`plant.rs`) on the aerodynamics, the mass
+//!   and inertia, the actuators and the engine lag ([`F16::with_plant`]; [`F16::new`] is the
+//!   nominal aircraft).
 //!
 //! Invariants: SI at every public item; constant mass; the data file is parsed once, in
-//! [`F16::new`]; evaluating [`F16::derivatives`] or [`F16::step_rk4`] never allocates.
+//! [`F16::with_plant`]; evaluating [`F16::derivatives`] or [`F16::step_rk4`] never allocates.
 //! [`F16::derivatives`] assumes a finite state with airspeed > 0 and |theta| < pi/2.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::actuators::ActuatorParams;
+use super::actuators::{ActuatorParams, FlownSurfaces};
 use super::aero::{AeroInput, AeroModel, ReferenceGeometry};
 use super::atmosphere::{AirProperties, Atmosphere};
 use super::data::{ModelData, ModelError};
 use super::engine::{Engine, commanded_power_pct, power_rate_pct_per_s};
+use super::plant::ReceiverPlant;
 use super::state::{ReceiverCommand, ReceiverState, StateVector, Wind};
 use super::units::{KG_M2_PER_SLUG_FT2, KG_PER_SLUG, M_PER_FT};
 
@@ -62,6 +66,9 @@ pub struct F16 {
     engine: Engine,
     atmosphere: Atmosphere,
     actuators: ActuatorParams,
+    /// The actuators as flown: `actuators` with the plant's rate-limit and bandwidth factors.
+    surfaces: FlownSurfaces,
+    plant: ReceiverPlant,
     geometry: ReferenceGeometry,
     xcg: f64,
     mass_kg: f64,
@@ -72,10 +79,22 @@ pub struct F16 {
 }
 
 impl F16 {
-    /// Build the model with the CG at `xcg` (fraction of the mean chord, 0.35 nominal; the
-    /// tables are referred to 0.35). Fails if the embedded data file is malformed or `xcg` is
+    /// Build the nominal model with the CG at `xcg` (fraction of the mean chord, 0.35
+    /// nominal; the tables are referred to 0.35): [`F16::with_plant`] with
+    /// [`ReceiverPlant::NOMINAL`]. Fails if the embedded data file is malformed or `xcg` is
     /// outside 0..=1.
     pub fn new(xcg: f64) -> Result<Self, ModelError> {
+        Self::with_plant(xcg, &ReceiverPlant::NOMINAL)
+    }
+
+    /// Build the model of a true aircraft with the CG at `xcg` and the factors of `plant`
+    /// (`plant.rs`): mass `m_data * mass_scale`; inertia `Jx`, `Jy`, `Jz` times `jx_scale`,
+    /// `jy_scale`, `jz_scale` and `Jxz` times `sqrt(jx_scale * jz_scale)`; the aerodynamic,
+    /// actuator and engine factors where those are computed. Fails if the data file is
+    /// malformed, `xcg` is outside 0..=1 or a factor is outside its limits
+    /// ([`ReceiverPlant::validate`]).
+    pub fn with_plant(xcg: f64, plant: &ReceiverPlant) -> Result<Self, ModelError> {
+        plant.validate()?;
         if !XCG_RANGE.contains(&xcg) {
             return Err(ModelError::InvalidParameter {
                 name: "xcg",
@@ -90,7 +109,15 @@ impl F16 {
             span_m: a.span_ft * M_PER_FT,
             mean_chord_m: a.mean_chord_ft * M_PER_FT,
         };
-        let (jx, jy, jz, jxz) = (a.jx_slugft2, a.jy_slugft2, a.jz_slugft2, a.jxz_slugft2);
+        let (kx, ky, kz) = (plant.jx_scale, plant.jy_scale, plant.jz_scale);
+        // With positive factors, (Jxz sqrt(kx kz))^2 < (Jx kx)(Jz kz) whenever Jxz^2 < Jx Jz.
+        let kxz = (kx * kz).sqrt();
+        let (jx, jy, jz, jxz) = (
+            a.jx_slugft2 * kx,
+            a.jy_slugft2 * ky,
+            a.jz_slugft2 * kz,
+            a.jxz_slugft2 * kxz,
+        );
         let inertia_kgm2 =
             Matrix3::new(jx, 0.0, -jxz, 0.0, jy, 0.0, -jxz, 0.0, jz) * KG_M2_PER_SLUG_FT2;
         // The data check makes J positive definite; this guards the inversion regardless.
@@ -102,19 +129,22 @@ impl F16 {
                     value: jxz,
                     requirement: "invertible inertia",
                 })?;
+        let actuators = ActuatorParams::from_data(&data.actuators)?;
         Ok(Self {
-            actuators: ActuatorParams::from_data(&data.actuators)?,
+            actuators,
+            surfaces: FlownSurfaces::new(&actuators, plant),
+            plant: *plant,
             atmosphere: Atmosphere::new(data.atmosphere.rho0_slug_ft3),
             engine: Engine::new(&data.grid, data.engine),
             geometry,
             xcg,
-            mass_kg: a.mass_slug * KG_PER_SLUG,
+            mass_kg: a.mass_slug * KG_PER_SLUG * plant.mass_scale,
             inertia_kgm2,
             inertia_inv_per_kgm2,
             engine_momentum_body_kgm2ps: Vector3::x()
                 * (a.engine_angular_momentum_slugft2_per_s * KG_M2_PER_SLUG_FT2),
             gravity_mps2: a.g_ftps2 * M_PER_FT,
-            aero: AeroModel::new(&data.grid, data.aero, geometry, a.xcg_ref, xcg),
+            aero: AeroModel::new(&data.grid, data.aero, geometry, a.xcg_ref, xcg, plant),
         })
     }
 
@@ -129,12 +159,18 @@ impl F16 {
         self.xcg
     }
 
-    /// Mass, kg.
+    /// The true aircraft's factors ([`ReceiverPlant::NOMINAL`] for [`F16::new`]).
+    pub fn plant(&self) -> &ReceiverPlant {
+        &self.plant
+    }
+
+    /// Mass, kg (the plant's `mass_scale` applied).
     pub fn mass_kg(&self) -> f64 {
         self.mass_kg
     }
 
-    /// Inertia matrix about the CG, body axes, kg m^2 (`J` in the module doc).
+    /// Inertia matrix about the CG, body axes, kg m^2 (`J` in the module doc; the plant's
+    /// factors applied).
     pub fn inertia_kgm2(&self) -> Matrix3<f64> {
         self.inertia_kgm2
     }
@@ -149,15 +185,19 @@ impl F16 {
         self.gravity_mps2
     }
 
-    /// Actuator and throttle parameters in use.
+    /// Actuator and throttle parameters in use, before the plant's factors: each surface's
+    /// rate limit and bandwidth as flown are these times its `*_rate_limit_scale` and
+    /// `*_bandwidth_scale` ([`F16::plant`]).
     pub fn actuators(&self) -> &ActuatorParams {
         &self.actuators
     }
 
-    /// Replace the actuator and throttle parameters; rejects invalid ones and keeps the old.
+    /// Replace the actuator and throttle parameters (the plant's factors still apply);
+    /// rejects invalid ones and keeps the old.
     pub fn set_actuators(&mut self, params: ActuatorParams) -> Result<(), ModelError> {
         params.validate()?;
         self.actuators = params;
+        self.surfaces = FlownSurfaces::new(&params, &self.plant);
         Ok(())
     }
 
@@ -207,8 +247,8 @@ impl F16 {
             engine_power_pct: power_rate_pct_per_s(
                 x.engine_power_pct,
                 commanded_power_pct(self.actuators.clamp_throttle(cmd.throttle)),
-            ),
-            surfaces_rad: self.actuators.surface_rates_radps(cmd, &x.surfaces_rad),
+            ) / self.plant.engine_time_constant_scale,
+            surfaces_rad: self.surfaces.rates_radps(cmd, &x.surfaces_rad),
         }
         .to_vector()
     }
@@ -300,7 +340,7 @@ fn euler_rates_radps(euler_rad: &Vector3<f64>, omega: &Vector3<f64>) -> Vector3<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::receiver::state::{Surfaces, state_index};
+    use crate::receiver::state::{STATE_DIM, Surfaces, state_index};
     use crate::receiver::trim::Trim;
 
     const XCG_NOMINAL: f64 = 0.35;
@@ -492,5 +532,161 @@ mod tests {
             late_max < 0.05 * peak_q_radps,
             "late {late_max} vs peak {peak_q_radps}"
         );
+    }
+
+    /// The trim state with surfaces off trim (so that every moment is non-zero) and no rates
+    /// (so that the gyroscopic terms vanish): the angular acceleration is `J^-1 M`.
+    fn deflected(trim: &Trim) -> ReceiverState {
+        let mut x = trim.state;
+        x.surfaces_rad.elevator_rad += 0.03;
+        x.surfaces_rad.aileron_rad = 0.05;
+        x.surfaces_rad.rudder_rad = -0.08;
+        x
+    }
+
+    fn with_plant(change: impl Fn(&mut ReceiverPlant)) -> F16 {
+        let mut plant = ReceiverPlant::NOMINAL;
+        change(&mut plant);
+        F16::with_plant(XCG_NOMINAL, &plant).expect("valid plant")
+    }
+
+    #[test]
+    fn the_nominal_plant_is_the_model() {
+        let (model, trim) = model_and_trim();
+        let same = F16::with_plant(XCG_NOMINAL, &ReceiverPlant::NOMINAL).expect("builds");
+        let x = deflected(&trim);
+        let wind = Wind::default();
+        assert_eq!(
+            same.derivatives(&x, &trim.command, &wind),
+            model.derivatives(&x, &trim.command, &wind)
+        );
+        assert!(model.plant().is_nominal());
+        let mut bad = ReceiverPlant::NOMINAL;
+        bad.mass_scale = 3.0;
+        let e = F16::with_plant(XCG_NOMINAL, &bad).expect_err("out of limits");
+        assert!(e.to_string().contains("mass_scale"), "{e}");
+    }
+
+    #[test]
+    fn inertia_factors_scale_the_angular_acceleration_for_the_same_moment() {
+        let (model, trim) = model_and_trim();
+        let x = deflected(&trim);
+        let (cmd, wind) = (trim.command, Wind::default());
+        let base = model.derivatives(&x, &cmd, &wind);
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+        // Pitch inertia twice: the pitch acceleration halves, nothing else changes.
+        let heavy_pitch = with_plant(|k| k.jy_scale = 2.0).derivatives(&x, &cmd, &wind);
+        assert!(base[state_index::Q].abs() > 0.1, "{}", base[state_index::Q]);
+        assert!(rel(heavy_pitch[state_index::Q], 0.5 * base[state_index::Q]) < 1e-12);
+        // The other accelerations through the inverse of another J: equal to rounding.
+        for i in [state_index::P, state_index::R] {
+            assert!(rel(heavy_pitch[i], base[i]) < 1e-13, "state {i}");
+        }
+        let angular = [state_index::P, state_index::Q, state_index::R];
+        for i in (0..STATE_DIM).filter(|i| !angular.contains(i)) {
+            assert_eq!(heavy_pitch[i], base[i], "state {i}");
+        }
+        // Roll and yaw inertias twice (and so Jxz): roll and yaw accelerations halve.
+        let heavy_lateral = with_plant(|k| {
+            k.jx_scale = 2.0;
+            k.jz_scale = 2.0;
+        });
+        let j = heavy_lateral.inertia_kgm2();
+        assert!(rel(j[(0, 2)], 2.0 * model.inertia_kgm2()[(0, 2)]) < 1e-15);
+        // One of them alone: Jxz by the geometric mean of the two factors.
+        let j = with_plant(|k| k.jx_scale = 1.44).inertia_kgm2();
+        assert!(rel(j[(0, 2)], 1.2 * model.inertia_kgm2()[(0, 2)]) < 1e-15);
+        assert!(rel(j[(0, 0)], 1.44 * model.inertia_kgm2()[(0, 0)]) < 1e-15);
+        let d = heavy_lateral.derivatives(&x, &cmd, &wind);
+        for i in [state_index::P, state_index::R] {
+            assert!(base[i].abs() > 0.05, "{}", base[i]);
+            assert!(rel(d[i], 0.5 * base[i]) < 1e-12, "state {i}");
+        }
+        assert!(rel(d[state_index::Q], base[state_index::Q]) < 1e-13);
+    }
+
+    #[test]
+    fn mass_factor_scales_the_acceleration_by_the_loads() {
+        let (model, trim) = model_and_trim();
+        let x = deflected(&trim);
+        let (cmd, wind) = (trim.command, Wind::default());
+        let heavy = with_plant(|k| k.mass_scale = 1.25);
+        assert!((heavy.mass_kg() - 1.25 * model.mass_kg()).abs() < 1e-9);
+        let (base, d) = (
+            model.derivatives(&x, &cmd, &wind),
+            heavy.derivatives(&x, &cmd, &wind),
+        );
+        // With no rates, dv/dt = F/m + g: the loads' part shrinks by 1/1.25, gravity's stays.
+        let force = model.body_loads(&x, &wind).force_body_n;
+        let expected = force / heavy.mass_kg() - force / model.mass_kg();
+        let got = d.fixed_rows::<3>(state_index::U) - base.fixed_rows::<3>(state_index::U);
+        assert!((got - expected).norm() < 1e-9, "{got} vs {expected}");
+        assert!(expected.norm() > 0.1);
+        for i in state_index::PHI..STATE_DIM {
+            assert_eq!(d[i], base[i], "state {i}");
+        }
+    }
+
+    #[test]
+    fn actuator_factors_scale_each_surfaces_rate_limit_and_bandwidth() {
+        let (model, trim) = model_and_trim();
+        let nominal = *model.actuators();
+        let slow = with_plant(|k| {
+            k.elevator_rate_limit_scale = 0.5;
+            k.aileron_bandwidth_scale = 1.5;
+            k.rudder_rate_limit_scale = 2.0;
+        });
+        let x = trim.state;
+        let rates = |m: &F16, cmd: &ReceiverCommand| {
+            let d = m.derivatives(&x, cmd, &Wind::default());
+            [
+                state_index::ELEVATOR,
+                state_index::AILERON,
+                state_index::RUDDER,
+            ]
+            .map(|i| d[i])
+        };
+        // Far commands: each surface at its rate limit, the elevator's and rudder's scaled.
+        let far = ReceiverCommand {
+            elevator_rad: 1.0,
+            aileron_rad: 1.0,
+            rudder_rad: -1.0,
+            ..trim.command
+        };
+        let [e, a, r] = rates(&slow, &far);
+        assert!((e - 0.5 * nominal.elevator.rate_limit_radps).abs() < 1e-15);
+        assert_eq!(a, nominal.aileron.rate_limit_radps);
+        assert!((r + 2.0 * nominal.rudder.rate_limit_radps).abs() < 1e-15);
+        // Small commands: the lag, the aileron's bandwidth scaled.
+        let error_rad = 1e-3;
+        let near = ReceiverCommand {
+            elevator_rad: x.surfaces_rad.elevator_rad + error_rad,
+            aileron_rad: error_rad,
+            rudder_rad: error_rad,
+            ..trim.command
+        };
+        let [e, a, r] = rates(&slow, &near);
+        let w = nominal.bandwidth_radps;
+        assert!((e - w * error_rad).abs() < 1e-12);
+        assert!((a - 1.5 * w * error_rad).abs() < 1e-12);
+        assert!((r - w * error_rad).abs() < 1e-12);
+        // Stepped: the elevator moves at the scaled rate limit, never faster.
+        let mut y = x;
+        slow.step_rk4(&mut y, &far, &Wind::default(), DT_S);
+        let moved = y.surfaces_rad.elevator_rad - x.surfaces_rad.elevator_rad;
+        assert!((moved - 0.5 * nominal.elevator.rate_limit_radps * DT_S).abs() < 1e-12);
+    }
+
+    #[test]
+    fn engine_factor_scales_the_power_lag() {
+        let (model, trim) = model_and_trim();
+        let lazy = with_plant(|k| k.engine_time_constant_scale = 2.0);
+        let cmd = ReceiverCommand {
+            throttle: trim.command.throttle + 0.1,
+            ..trim.command
+        };
+        let rate = |m: &F16| m.derivatives(&trim.state, &cmd, &Wind::default())[state_index::POWER];
+        assert!(rate(&model) > 1.0, "{}", rate(&model));
+        assert!((rate(&lazy) - 0.5 * rate(&model)).abs() < 1e-12);
     }
 }
