@@ -458,6 +458,7 @@ pub struct PilLink {
     frame_index: u64,
     last_frame: Vec<u8>,
     sent: Vec<u8>,
+    received: Vec<u8>,
     boot: Downlink,
     /// The latest telemetry frame received (`None` before the first).
     telemetry: Option<Telemetry>,
@@ -630,6 +631,7 @@ impl PilLink {
             frame_index: 0,
             last_frame: Vec::new(),
             sent: Vec::new(),
+            received: Vec::new(),
             boot: Downlink::default(),
             telemetry: None,
             rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
@@ -680,6 +682,12 @@ impl PilLink {
     /// Every byte written to the link so far, faults included.
     pub fn sent_bytes(&self) -> &[u8] {
         &self.sent
+    }
+
+    /// Every byte read from the link so far, in order, whatever it was (frames of every kind,
+    /// garbage, idle zeros): a capture of the firmware's side of the link.
+    pub fn received_bytes(&self) -> &[u8] {
+        &self.received
     }
 
     /// The last measurement frame encoded (as [`PilLink::resend`] repeats it: before faults),
@@ -929,7 +937,10 @@ impl PilLink {
                     self.exited = Some(status);
                     return Err(self.exited_error(status));
                 }
-                Ok(n) => self.rx_buf.extend(&chunk[..n]),
+                Ok(n) => {
+                    self.rx_buf.extend(&chunk[..n]);
+                    self.received.extend_from_slice(&chunk[..n]);
+                }
                 Err(e)
                     if matches!(
                         e.kind(),
