@@ -37,7 +37,7 @@ use host_sim::synthesis::{
 };
 use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::wire::CostUnit;
-use ibvs_core::{Controller, OuterLaw};
+use ibvs_core::{Controller, ControllerConfig, OuterLaw};
 use serde::Deserialize as _;
 
 #[derive(Parser)]
@@ -486,12 +486,12 @@ fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     Ok(())
 }
 
-/// Writes a run's CSV, summary and figure into `dir`.
-fn write_run(dir: &Path, run: &Run) -> Result<(), AnyError> {
+/// Writes a run (flown with `cfg`)'s CSV, summary and figure into `dir`.
+fn write_run(dir: &Path, run: &Run, cfg: &ControllerConfig) -> Result<(), AnyError> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     output::write_csv(&dir.join("run.csv"), run)?;
     output::write_summary(&dir.join("summary.json"), run)?;
-    plot::write_dock_figure(&dir.join("dock.png"), run)?;
+    plot::write_dock_figure(&dir.join("dock.png"), run, cfg)?;
     Ok(())
 }
 
@@ -625,7 +625,7 @@ fn dock(
         }
     };
     if let Some(dir) = &out {
-        write_run(dir, &run)?;
+        write_run(dir, &run, &cfg)?;
         eprintln!(
             "wrote {0}/run.csv, {0}/summary.json, {0}/dock.png",
             dir.display()
