@@ -38,17 +38,20 @@ pub fn region<'a>(doc: &'a str, name: &str) -> (usize, usize, &'a str) {
     (a, b, &doc[a..b])
 }
 
-/// The cells of a table row (`| a | b |`), backticks around a whole cell removed.
-pub fn cells(line: &str) -> Vec<String> {
+/// The cells of a table row (`| a | b |`) as written.
+pub fn raw_cells(line: &str) -> Vec<String> {
     let inner = line.trim().trim_start_matches('|').trim_end_matches('|');
-    inner
-        .split(" | ")
+    inner.split(" | ").map(|c| c.trim().to_string()).collect()
+}
+
+/// The cells of a table row, backticks around a whole cell removed.
+pub fn cells(line: &str) -> Vec<String> {
+    raw_cells(line)
+        .into_iter()
         .map(|c| {
-            let c = c.trim();
             c.strip_prefix('`')
                 .and_then(|c| c.strip_suffix('`'))
-                .unwrap_or(c)
-                .to_string()
+                .map_or(c.clone(), str::to_string)
         })
         .collect()
 }
@@ -99,7 +102,9 @@ pub fn parse_layout(text: &str) -> Vec<DocContainer> {
         let mut rows = Vec::new();
         let mut notes = Vec::new();
         for line in table_rows(body) {
-            let c = cells(line);
+            // The type columns compared without their backticks; the hand-written ones kept
+            // as written.
+            let (c, raw) = (cells(line), raw_cells(line));
             if kind == "enum" {
                 assert_eq!(c.len(), 4, "{name}: {line}");
                 rows.push(Row {
@@ -110,7 +115,7 @@ pub fn parse_layout(text: &str) -> Vec<DocContainer> {
                     name: c[1].clone(),
                     ty: c[2].clone(),
                 });
-                notes.push((String::new(), c[3].clone()));
+                notes.push((String::new(), raw[3].clone()));
             } else {
                 assert_eq!(c.len(), 4, "{name}: {line}");
                 rows.push(Row {
@@ -118,7 +123,7 @@ pub fn parse_layout(text: &str) -> Vec<DocContainer> {
                     name: c[0].clone(),
                     ty: c[1].clone(),
                 });
-                notes.push((c[2].clone(), c[3].clone()));
+                notes.push((raw[2].clone(), raw[3].clone()));
             }
         }
         out.push(DocContainer {

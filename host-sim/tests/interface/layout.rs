@@ -451,7 +451,7 @@ impl<'a> Generator<'a> {
             Fill::Largest => 0xFFFF_FFFF,
             Fill::Distinct(_) => {
                 let n = self.next();
-                if self.leaf % 11 == 0 {
+                if self.leaf.is_multiple_of(11) {
                     SPECIAL[(self.leaf / 11) as usize % SPECIAL.len()]
                 } else {
                     // A finite number of modest size with distinct low bits.
@@ -513,7 +513,7 @@ impl<'a> Generator<'a> {
                 let some = match self.fill {
                     Fill::Smallest => false,
                     Fill::Largest => true,
-                    Fill::Distinct(_) => self.next() % 3 != 0,
+                    Fill::Distinct(_) => !self.next().is_multiple_of(3),
                 };
                 self.out.push(u8::from(some));
                 if some {
