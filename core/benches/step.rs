@@ -3,12 +3,14 @@
 //! What is measured is the wall time of a single control step (validation, outer loop, mode
 //! logic, slew, both inner loops, saturation, status and counters), in four situations:
 //! - `step/ibvs_approach_valid_frame`: steady approach under the paper's IBVS law and
-//!   procedure ([`ControllerConfig::paper`]). The controller is
-//!   engaged and warmed up first; every iteration then steps the same controller with the next
-//!   frame (advancing sequence number) and a slowly varying image point, depth and navigation
-//!   sample, so the step is neither constant-folded nor cached. There is no plant in the
-//!   loop, so the steady state reached has some actuators saturated and integrators frozen
-//!   (the same code path: saturation and anti-windup are evaluated every step);
+//!   procedure ([`ControllerConfig::paper`]). The controller is engaged and warmed up first;
+//!   the timed steps then replay a stretch of 256 steps from that state (a clone per stretch,
+//!   made outside the timed region), each with the next frame (advancing sequence number) and
+//!   a slowly varying image point, depth and navigation sample, so the step is neither
+//!   constant-folded nor cached, and every step of the stretch is checked beforehand to be in
+//!   the mode named. There is no plant in the loop, so the steady state reached has some
+//!   actuators saturated and integrators frozen (the same code path: saturation and
+//!   anti-windup are evaluated every step);
 //! - `step/ibvs_approach_hold_invalid_frame`: the hold path, an approach step whose frame is
 //!   rejected (not tracked) so the last valid command is held. A hold may only last
 //!   `hold_limit_steps` steps, so every iteration steps a fresh clone of a controller that is
@@ -18,12 +20,15 @@
 //! - `step/refuelling_pre_contact_valid_frame`: the refuelling procedure (the default
 //!   configuration) holding its pre-contact station, with the drogue estimator and the
 //!   station-keeping outer loop running on every frame. The drogue of these inputs sits off
-//!   the station, so the dwell never completes and every step is a pre-contact step.
+//!   the station, so the dwell never completes and every step of the stretch is a
+//!   pre-contact step (stepped on for long enough, the sortie budget would end the station
+//!   in a breakaway: the replayed stretch keeps every timed step inside it).
 //!
 //! Run with `cargo bench -p ibvs-core --bench step`. The numbers are host numbers (the bench
 //! profile: optimised, LTO), a relative measure only; the flight target is not measured here.
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use criterion::measurement::WallTime;
 use criterion::{BatchSize, BenchmarkGroup, Criterion, criterion_group, criterion_main};
@@ -87,6 +92,14 @@ fn engaged(cfg: ControllerConfig, inputs: &[ControllerInput], mode: Mode) -> (Co
     (ctl, seq)
 }
 
+/// Steps in a replayed stretch: each stretch starts from the warmed-up controller (cloned
+/// outside the timed region) and steps it through the next [`STRETCH`] inputs, so however
+/// many steps criterion asks for, every timed step is one of the same stretch, all checked
+/// to be in the mode named. (Stepping one controller on and on, as criterion's millions of
+/// iterations would, leaves the mode: the refuelling procedure's sortie budget ends its
+/// pre-contact station in a breakaway.)
+const STRETCH: usize = 256;
+
 /// Steady steps in `mode` with valid frames under `cfg`.
 fn bench_valid(
     group: &mut BenchmarkGroup<'_, WallTime>,
@@ -95,18 +108,42 @@ fn bench_valid(
     mode: Mode,
 ) {
     let inputs = varying_inputs();
-    let (mut ctl, mut seq) = engaged(cfg, &inputs, mode);
-    let mut k = 0_usize;
+    let (warm, last_seq) = engaged(cfg, &inputs, mode);
+    // The stretch: the inputs after the warm-up's last (the variations are periodic, so the
+    // first follows the last smoothly), with the sequence numbers after its last.
+    let stretch: Vec<ControllerInput> = (0..STRETCH)
+        .map(|k| {
+            let mut i = inputs[k % VARIATIONS];
+            i.measurement.seq = last_seq.wrapping_add(1 + k as u32);
+            i
+        })
+        .collect();
+    let mut probe = warm.clone();
+    for (k, input) in stretch.iter().enumerate() {
+        let out = probe.step(input);
+        assert_eq!(out.mode, mode, "step {k} of the stretch leaves {mode:?}");
+        assert_eq!(
+            out.measurement_error, None,
+            "step {k} of the stretch: a valid frame"
+        );
+    }
     group.bench_function(name, |b| {
-        b.iter(|| {
-            seq = seq.wrapping_add(1);
-            k = (k + 1) & (VARIATIONS - 1);
-            let mut input = inputs[k];
-            input.measurement.seq = seq;
-            ctl.step(black_box(&input))
+        b.iter_custom(|iters| {
+            let mut spent = Duration::ZERO;
+            let mut left = iters;
+            while left > 0 {
+                let n = left.min(STRETCH as u64) as usize;
+                let mut ctl = warm.clone();
+                let t0 = Instant::now();
+                for input in &stretch[..n] {
+                    black_box(ctl.step(black_box(input)));
+                }
+                spent += t0.elapsed();
+                left -= n as u64;
+            }
+            spent
         });
     });
-    assert_eq!(ctl.mode(), mode, "benchmarked outside {mode:?}");
 }
 
 /// Approach steps on the hold path (frame not tracked, last valid command held).

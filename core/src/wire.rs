@@ -46,12 +46,14 @@
 //! another (a closing-speed band, a gate radius inside another): a whole configuration is
 //! validated and applied in one piece between two steps, so no step ever flies half of one.
 //! Every command frame carries the active configuration's id ([`Downlink::config_id`]), so a
-//! log says which configuration flew each step.//!
-//! postcard writes integers as LEB128 varints (1 to 5 bytes for a `u32`), `f32` as 4 bytes
-//! little-endian, `bool` and enum tags as one byte, `Option` as a tag byte and the value.
-//! A measurement frame is 82 to 90 bytes on the wire, a command frame 101 to 137, a telemetry
-//! frame 55 to 235 (measured by the tests with the smallest and largest values of every
-//! field).
+//! log says which configuration flew each step.
+//!
+//! postcard writes unsigned integers wider than a byte as LEB128 varints (1 to 5 bytes for a
+//! `u32`), `u8` and `bool` as one byte, `f32` as 4 bytes little-endian, an enum's variant
+//! index as a varint, `Option` as a tag byte and the value.
+//! Every frame's size, smallest and largest, derived from the types, is in
+//! `docs/interface.md` (the link's interface control document, which a test keeps equal to
+//! these types: field order, encodings, enum numbers, bits and sizes).
 //!
 //! COBS makes the payload free of zeros, so `0x00` only ever ends a frame: a receiver that
 //! lost sync (garbage, a cut frame) resynchronises at the next zero. An empty frame (two zeros
@@ -76,7 +78,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 8;
+pub const PROTOCOL_VERSION: u8 = 9;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 640;
@@ -1653,7 +1655,7 @@ mod tests {
             out[..n].to_vec()
         };
         assert_eq!(
-            decode_uplink(&raw(&[9, b'M', 1, 2])),
+            decode_uplink(&raw(&[PROTOCOL_VERSION.wrapping_add(1), b'M', 1, 2])),
             Err(WireError::VersionMismatch)
         );
         assert_eq!(

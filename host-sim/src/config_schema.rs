@@ -304,6 +304,260 @@ mod tests {
         );
     }
 
+    /// The configuration with the setting at dotted `path` set to `value` (through the
+    /// table a scenario file writes), everything else default; its validation.
+    fn with_setting(path: &str, value: toml::Value) -> Result<(), ibvs_core::ConfigError> {
+        let mut table = toml::Table::new();
+        let mut keys: Vec<&str> = path.split('.').collect();
+        let last = keys.pop().expect("a name");
+        let mut t = &mut table;
+        for k in keys {
+            t = t
+                .entry(k)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .expect("a table");
+        }
+        t.insert(last.into(), value);
+        ControllerSection::from_table(&table)
+            .expect("a number where a number goes")
+            .config
+            .validate()
+    }
+
+    /// The boundaries of the number-shaped rules: "> 0" refuses 0 and takes the least
+    /// positive number tried, ">= 0" takes 0 and refuses the least negative tried, each under
+    /// its own rule's name.
+    #[test]
+    fn positive_and_non_negative_rules_hold_at_their_boundary() {
+        let breaks = |path: &str, v: f64, requirement: &str| {
+            matches!(with_setting(path, toml::Value::Float(v)),
+                     Err(e) if e.field == path && e.requirement == requirement)
+        };
+        let (mut positive, mut non_negative) = (0, 0);
+        for rule in RULES {
+            match rule.requirement {
+                "finite, > 0" => {
+                    assert!(
+                        breaks(rule.field, 0.0, rule.requirement),
+                        "{}: 0 refused",
+                        rule.field
+                    );
+                    assert!(
+                        !breaks(rule.field, 1e-6, rule.requirement),
+                        "{}: 1e-6 taken",
+                        rule.field
+                    );
+                    positive += 1;
+                }
+                "finite, >= 0" => {
+                    assert!(
+                        !breaks(rule.field, 0.0, rule.requirement),
+                        "{}: 0 taken",
+                        rule.field
+                    );
+                    assert!(
+                        breaks(rule.field, -1e-6, rule.requirement),
+                        "{}: -1e-6 refused",
+                        rule.field
+                    );
+                    non_negative += 1;
+                }
+                _ => {}
+            }
+        }
+        assert!(
+            positive > 60 && non_negative > 15,
+            "{positive} and {non_negative}"
+        );
+    }
+
+    /// Every cross-field and range rule (a condition, not a sign): a configuration breaking
+    /// it alone (written here, not derived from the rule) is refused under that rule, and
+    /// every such rule of the core has its case here.
+    #[test]
+    fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
+        let cases: [(&str, &str); 42] = [
+            (
+                "ibvs.max_cartesian_gain_per_s",
+                "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
+            ),
+            (
+                "velocity_limits.min_closing_mps",
+                "[velocity_limits]\nmin_closing_mps = 2.5",
+            ),
+            ("camera.pitch_down_rad", "[camera]\npitch_down_rad = 10.0"),
+            (
+                "measurement.max_depth_m",
+                "[measurement]\nmax_depth_m = 2000.0",
+            ),
+            (
+                "ibvs.convergence_point",
+                "[ibvs]\nconvergence_point = [0.9, 0.0]",
+            ),
+            (
+                "nav_envelope.max_angle_rad",
+                "[nav_envelope]\nmax_angle_rad = 3.0",
+            ),
+            (
+                "nav_envelope.max_bank_rad",
+                "[nav_envelope]\nmax_bank_rad = 10.0",
+            ),
+            (
+                "nav_envelope.max_sideslip_rad",
+                "[nav_envelope]\nmax_sideslip_rad = 10.0",
+            ),
+            (
+                "modes.terminal_timeout_s",
+                "[modes]\nterminal_timeout_s = 4000.0",
+            ),
+            (
+                "modes.breakaway_down_mps",
+                "[modes]\nbreakaway_down_mps = 3.0",
+            ),
+            (
+                "modes.drogue_rate_filter",
+                "[modes]\ndrogue_rate_filter = 1.5",
+            ),
+            ("modes.overspeed_mps", "[modes]\noverspeed_mps = 1.5"),
+            (
+                "modes.breakaway_aft_mps",
+                "[modes]\nbreakaway_aft_mps = 2.5",
+            ),
+            ("actuators.min", "[actuators]\nmin = [0.5, 0.0, -0.3, -0.5]"),
+            (
+                "actuators.max",
+                "[actuators]\nmax = [0.43, 0.001, 0.37, 0.52]",
+            ),
+            ("nav_latency_steps", "nav_latency_steps = 5"),
+            (
+                "estimator.tip_sight_filter",
+                "[estimator]\ntip_sight_filter = 1.5",
+            ),
+            (
+                "estimator.drogue_time_constant_s",
+                "[estimator]\ndrogue_time_constant_s = 0.01",
+            ),
+            (
+                "estimator.drogue_fwd_time_constant_s",
+                "[estimator]\ndrogue_fwd_time_constant_s = 0.01",
+            ),
+            (
+                "estimator.activity_time_constant_s",
+                "[estimator]\nactivity_time_constant_s = 0.01",
+            ),
+            (
+                "estimator.mean_time_constant_s",
+                "[estimator]\nmean_time_constant_s = 0.01",
+            ),
+            (
+                "refuelling.station_clear_offset_m",
+                "[refuelling]\nstation_clear_offset_m = 0.7",
+            ),
+            (
+                "refuelling.capture_min_closing_mps",
+                "[refuelling]\ncapture_min_closing_mps = 1.1",
+            ),
+            (
+                "refuelling.feedforward_lead_s",
+                "[refuelling]\nfeedforward_lead_s = 6.0",
+            ),
+            (
+                "estimator.drogue_accel_time_constant_s",
+                "[estimator]\ndrogue_accel_time_constant_s = 0.01",
+            ),
+            (
+                "refuelling.feedforward_lead_s",
+                "[refuelling]\nfeedforward_lead_s = 2.0",
+            ),
+            (
+                "refuelling.gate_max_horizon_s",
+                "[refuelling]\ngate_max_horizon_s = 2.0",
+            ),
+            (
+                "refuelling.contact_speed_mps",
+                "[refuelling]\ncontact_speed_mps = 2.5",
+            ),
+            (
+                "refuelling.rough_air_contact_speed_mps",
+                "[refuelling]\nrough_air_contact_speed_mps = 2.5",
+            ),
+            (
+                "refuelling.missed_aft_mps",
+                "[refuelling]\nmissed_aft_mps = 2.5",
+            ),
+            (
+                "refuelling.missed_down_mps",
+                "[refuelling]\nmissed_down_mps = 2.5",
+            ),
+            (
+                "refuelling.late_gate_final_radius_m",
+                "[refuelling]\nlate_gate_final_radius_m = 0.5",
+            ),
+            (
+                "refuelling.commit_depth_m",
+                "[refuelling]\ncommit_depth_m = 3.5",
+            ),
+            (
+                "refuelling.station_overrun_m",
+                "[refuelling]\nstation_overrun_m = 2.5",
+            ),
+            (
+                "refuelling.station_overrun_m",
+                "[refuelling]\nstation_overrun_m = 0.2",
+            ),
+            ("refuelling.max_attempts", "[refuelling]\nmax_attempts = 0"),
+            (
+                "refuelling.feedforward_gain",
+                "[refuelling]\nfeedforward_gain = 1.5",
+            ),
+            (
+                "refuelling.station_dwell_s",
+                "[refuelling]\nstation_dwell_s = 4000.0",
+            ),
+            (
+                "refuelling.capture_timeout_s",
+                "[refuelling]\ncapture_timeout_s = 4000.0",
+            ),
+            (
+                "refuelling.missed_clear_s",
+                "[refuelling]\nmissed_clear_s = 4000.0",
+            ),
+            (
+                "refuelling.reacquire_limit_s",
+                "[refuelling]\nreacquire_limit_s = 4000.0",
+            ),
+            (
+                "refuelling.sortie_budget_s",
+                "[refuelling]\nsortie_budget_s = 100000.0",
+            ),
+        ];
+        let shaped = ["finite, > 0", "finite, >= 0", "finite (every element)"];
+        let mut covered = std::collections::BTreeSet::new();
+        for (field, text) in cases {
+            let table: toml::Table = text.parse().expect("TOML");
+            let cfg = ControllerSection::from_table(&table)
+                .expect("settings")
+                .config;
+            let e = cfg.validate().expect_err(text);
+            assert_eq!(e.field, field, "{text}: {e}");
+            assert!(!shaped.contains(&e.requirement), "{text}: {e}");
+            assert!(
+                covered.insert((e.field, e.requirement)),
+                "{text}: the same rule twice"
+            );
+        }
+        let conditions: std::collections::BTreeSet<_> = RULES
+            .iter()
+            .filter(|r| !shaped.contains(&r.requirement))
+            .map(|r| (r.field, r.requirement))
+            .collect();
+        assert_eq!(
+            covered, conditions,
+            "every condition rule has its case above"
+        );
+    }
+
     #[test]
     fn every_rule_names_a_setting_and_breaking_it_alone_is_reported_there() {
         let keys: Vec<String> = schema().settings.into_iter().map(|x| x.key).collect();

@@ -18,7 +18,15 @@
 //! ```
 //!
 //! Exit status: 0 on success (for `dock`: the run completed, whatever its outcome), 1 on an
-//! error, which is printed to stderr.
+//! error, which is printed to stderr, 2 on an argument clap refuses (a malformed value, or a
+//! count, a time or a number of jobs outside its stated range, named with the range).
+//!
+//! Every input is bounded and named: counts at least 1 (`--runs`, `--seeds` at most 10,000,
+//! `--shards`), `--jobs` 1 to 256, times finite and not negative, a flight condition inside
+//! the models' range (`trim`), scenario files read with a size limit and their errors named
+//! by file, line and key (`host_sim::scenario`), a firmware file checked to be the `qemu`
+//! board's ARM ELF before QEMU starts, an option the scenario's procedure would ignore
+//! refused, a shard merged twice refused.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -35,9 +43,10 @@ use host_sim::sim::{self, Run};
 use host_sim::synthesis::{
     self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_DESIGN_XCG, REFUELLING_SPEED_MPS, codegen,
 };
+use host_sim::world::flight::FlightCondition;
 use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::wire::CostUnit;
-use ibvs_core::{Controller, OuterLaw};
+use ibvs_core::{Controller, ControllerConfig, OuterLaw, Procedure};
 use serde::Deserialize as _;
 
 #[derive(Parser)]
@@ -82,7 +91,8 @@ enum Command {
         /// A built-in scenario (`host-sim scenarios` lists them) or a TOML file.
         #[arg(long, value_name = "NAME|PATH", default_value = "calm")]
         scenario: String,
-        /// Outer loop of the paper's procedure (`controller.law`): ibvs or pbvs.
+        /// Outer loop of the paper's procedure (`controller.law`): ibvs or pbvs; refused under
+        /// the refuelling procedure, which does not fly it.
         #[arg(long, value_parser = parse_law)]
         controller: Option<OuterLaw>,
         /// Drogue centre minus probe tip at the start, tanker axes (forward, right, down), m.
@@ -129,8 +139,9 @@ enum Command {
         /// Also write dock.gif: chase views and the camera's image, animated (docs/logs.md).
         #[arg(long, conflicts_with = "no_files")]
         animate: bool,
-        /// With `--animate`, also write dock-still.png: the animation's frame at this time, s.
-        #[arg(long, value_name = "T", requires = "animate")]
+        /// With `--animate`, also write dock-still.png: the animation's frame at this time, s
+        /// (finite, at least 0; past the run's end, its last frame).
+        #[arg(long, value_name = "T", requires = "animate", value_parser = parse_time_s)]
         still_s: Option<f64>,
         /// Write the flight-test log, MCAP with typed JSON channels, to this file (docs/logs.md).
         #[arg(long, value_name = "PATH.mcap")]
@@ -153,8 +164,9 @@ enum Command {
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out/paper")]
         out: PathBuf,
-        /// Seeds per experiment.
-        #[arg(long, default_value_t = paper::DEFAULT_SEEDS)]
+        /// Seeds per experiment (1 to 10,000).
+        #[arg(long, default_value_t = paper::DEFAULT_SEEDS,
+              value_parser = clap::value_parser!(u64).range(1..=MAX_SEEDS))]
         seeds: u64,
     },
     /// Monte Carlo campaign: many dockings of one scenario, dispersed per run by its
@@ -170,17 +182,18 @@ struct MonteCarloArgs {
     /// A built-in scenario or a TOML file; its seed is the campaign's.
     #[arg(long, value_name = "NAME|PATH", required = true)]
     scenario: Option<String>,
-    /// Runs in the whole campaign (run i flies the dispersion drawn for index i).
-    #[arg(long, required_unless_present = "show_run")]
+    /// Runs in the whole campaign, at least 1 (run i flies the dispersion drawn for index i).
+    #[arg(long, required_unless_present = "show_run",
+          value_parser = clap::value_parser!(u64).range(1..))]
     runs: Option<u64>,
     /// The campaign's first run index: runs FIRST..FIRST+RUNS. A campaign reported on should
     /// not share runs with the ones its thresholds were chosen on (docs/scenarios.md,
     /// "Evaluation protocol").
     #[arg(long, value_name = "FIRST", default_value_t = 0)]
     first_run: u64,
-    /// Parallel runs (default: one per core).
-    #[arg(long)]
-    jobs: Option<usize>,
+    /// Parallel runs, 1 to 256 (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=MAX_JOBS))]
+    jobs: Option<u64>,
     /// Run only part K of M (1-based; the runs at positions K - 1, K - 1 + M, ... of the
     /// campaign), to merge later. Without it, a Slurm array task takes its part from
     /// SLURM_ARRAY_TASK_ID, and a Kubernetes Indexed Job from JOB_COMPLETION_INDEX with
@@ -189,7 +202,8 @@ struct MonteCarloArgs {
     shard: Option<Shard>,
     /// Number of parts of a Kubernetes Indexed Job (its completions), whose environment gives
     /// the part's 0-based index in JOB_COMPLETION_INDEX.
-    #[arg(long, value_name = "M", conflicts_with = "shard")]
+    #[arg(long, value_name = "M", conflicts_with = "shard",
+          value_parser = clap::value_parser!(u64).range(1..))]
     shards: Option<u64>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/montecarlo")]
@@ -263,6 +277,25 @@ fn main() -> ExitCode {
 
 type AnyError = Box<dyn std::error::Error>;
 
+/// The most parallel runs `--jobs` takes: a thread each (rayon's pool), far more than any
+/// machine's cores; a larger pool only costs memory and start-up time.
+const MAX_JOBS: u64 = 256;
+
+/// The most seeds per experiment `paper --seeds` takes.
+const MAX_SEEDS: u64 = 10_000;
+
+/// A time of a run, s: finite and not negative.
+fn parse_time_s(s: &str) -> Result<f64, String> {
+    let t: f64 = s.trim().parse().map_err(|e| format!("{e}"))?;
+    if t.is_finite() && t >= 0.0 {
+        Ok(t)
+    } else {
+        Err(format!(
+            "{t} s is not a time of the run: finite, at least 0"
+        ))
+    }
+}
+
 fn run(cli: Cli) -> Result<(), AnyError> {
     match cli.command {
         Command::Trim {
@@ -292,9 +325,28 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             still_s,
             log,
         } => {
+            let given = Overrides {
+                start: start.is_some(),
+                duration: duration_s.is_some(),
+                gains: ibvs_gains.is_some(),
+                min_closing: min_closing_mps.is_some(),
+            };
             let mut f = ScenarioFile::load(&scenario)?;
             let cfg = &mut f.controller.config;
             if let Some(c) = controller {
+                // The law is the paper procedure's outer loop: under the refuelling procedure
+                // it would be ignored, so it is refused rather than silently dropped.
+                if cfg.procedure != Procedure::Paper {
+                    return Err(format!(
+                        "--controller {}: the outer law (controller.law) is flown by the \
+                         paper's procedure only, and scenario {scenario} flies the {} \
+                         procedure (controller.procedure); fly a paper scenario (`host-sim \
+                         scenarios` lists them, e.g. --scenario paper-level1)",
+                        law_name(c),
+                        procedure_name(cfg.procedure),
+                    )
+                    .into());
+                }
                 cfg.law = c;
             }
             if let Some(v) = start {
@@ -319,7 +371,27 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             if let Some(t) = duration_s {
                 f.duration_s = t;
             }
-            f.validate()?;
+            // An error in what an option set names the option, as the user wrote it.
+            f.validate().map_err(|e| -> AnyError {
+                let key = e.to_string();
+                let by_option = [
+                    ("--start", given.start, "initial.drogue_minus_probe_m"),
+                    ("--duration-s", given.duration, "duration_s"),
+                    ("--ibvs-gains", given.gains, "controller.ibvs.k"),
+                    (
+                        "--min-closing-mps",
+                        given.min_closing,
+                        "controller.velocity_limits.min_closing_mps",
+                    ),
+                ];
+                match by_option
+                    .iter()
+                    .find(|(_, set, k)| *set && key.starts_with(k))
+                {
+                    Some((option, _, _)) => format!("{option}: {key}").into(),
+                    None => e.into(),
+                }
+            })?;
             let computer = match (pil, hil.then_some(serial).flatten()) {
                 (true, _) => Computer::Pil(firmware),
                 (false, Some(path)) => Computer::Hil { path, baud },
@@ -384,6 +456,22 @@ fn run(cli: Cli) -> Result<(), AnyError> {
 
 fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
     if let Some(MonteCarloAction::Merge { dirs, out }) = args.action {
+        for (k, d) in dirs.iter().enumerate() {
+            let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+                (Ok(a), Ok(b)) => a == b,
+                _ => a == b,
+            };
+            if let Some(first) = dirs[..k].iter().find(|e| same(e, d)) {
+                return Err(format!(
+                    "montecarlo merge: the shard {} is given twice ({} and {}): name each \
+                     shard's directory once",
+                    d.display(),
+                    first.display(),
+                    d.display()
+                )
+                .into());
+            }
+        }
         let summary = montecarlo::merge(&dirs, &out)?;
         println!("{}", montecarlo::one_line(&summary));
         eprintln!("merged {} directories into {}", dirs.len(), out.display());
@@ -413,11 +501,14 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
             Some(p) => p,
             None => pil::firmware_elf()?,
         };
+        // Checked once, before any run starts an emulator.
+        pil::check_firmware_elf(&elf)?;
         CampaignComputer::Pil(elf)
     } else {
         CampaignComputer::InProcess
     };
-    let lines = montecarlo::run_campaign_on(&f, &indices, args.jobs, &computer)?;
+    let jobs = args.jobs.map(|j| j as usize);
+    let lines = montecarlo::run_campaign_on(&f, &indices, jobs, &computer)?;
     let wall_s = started.elapsed().as_secs_f64();
     let meta = CampaignMeta::new(&f, runs, shard)
         .from_run(args.first_run)
@@ -427,14 +518,21 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
     eprintln!(
         "{} runs in {wall_s:.1} s on {} threads; wrote {}/{{runs.jsonl, campaign.json, summary.json, miss_scatter.png, hazards.png, success_vs_turbulence.png, success_vs_condition.png}}",
         indices.len(),
-        args.jobs.unwrap_or_else(rayon::current_num_threads),
+        jobs.unwrap_or_else(rayon::current_num_threads),
         args.out.display()
     );
     Ok(())
 }
 
 fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), AnyError> {
-    let t = F16::new(xcg)?
+    let model = F16::new(xcg)?;
+    // The models' range, as a scenario's flight condition (the key as the user wrote it).
+    FlightCondition {
+        airspeed_mps: speed_mps,
+        altitude_m,
+    }
+    .validate(|h| model.air_at(h), "--speed-mps", "--altitude-m")?;
+    let t = model
         .trim_straight_level(speed_mps, altitude_m)
         .map_err(|e| format!("no trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}: {e}"))?;
     if json {
@@ -494,12 +592,12 @@ fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     Ok(())
 }
 
-/// Writes a run's CSV, summary and figure into `dir`.
-fn write_run(dir: &Path, run: &Run) -> Result<(), AnyError> {
+/// Writes a run (flown with `cfg`)'s CSV, summary and figure into `dir`.
+fn write_run(dir: &Path, run: &Run, cfg: &ControllerConfig) -> Result<(), AnyError> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     output::write_csv(&dir.join("run.csv"), run)?;
     output::write_summary(&dir.join("summary.json"), run)?;
-    plot::write_dock_figure(&dir.join("dock.png"), run)?;
+    plot::write_dock_figure(&dir.join("dock.png"), run, cfg)?;
     Ok(())
 }
 
@@ -633,7 +731,7 @@ fn dock(
         }
     };
     if let Some(dir) = &out {
-        write_run(dir, &run)?;
+        write_run(dir, &run, &cfg)?;
         eprintln!(
             "wrote {0}/run.csv, {0}/summary.json, {0}/dock.png",
             dir.display()
@@ -682,6 +780,34 @@ fn dock(
         }
     }
     Ok(())
+}
+
+/// Which of `dock`'s options override the scenario's values.
+struct Overrides {
+    /// `--start`.
+    start: bool,
+    /// `--duration-s`.
+    duration: bool,
+    /// `--ibvs-gains`.
+    gains: bool,
+    /// `--min-closing-mps`.
+    min_closing: bool,
+}
+
+/// An outer law's name in scenario files.
+fn law_name(l: OuterLaw) -> String {
+    serde_json::to_value(l)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_owned))
+        .unwrap_or_else(|| format!("{l:?}"))
+}
+
+/// A procedure's name in scenario files.
+fn procedure_name(p: Procedure) -> String {
+    serde_json::to_value(p)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_owned))
+        .unwrap_or_else(|| format!("{p:?}"))
 }
 
 /// `--controller`: an outer law by its name in scenario files (`ibvs`, `pbvs`).

@@ -87,6 +87,18 @@ pub enum PilError {
         "firmware ELF not found: {0} (build it with `{FIRMWARE_BUILD_COMMAND}`, or name one in {FIRMWARE_ELF_ENV})"
     )]
     ElfMissing(PathBuf),
+    /// The file is not the `qemu` board's firmware: not an ELF, not for a 32-bit
+    /// little-endian ARM core, or another board's build (the `f405` board, which QEMU would
+    /// run until a timeout: its first acts are the real board's clock set-up).
+    #[error(
+        "{path} is not the qemu board's firmware: {reason} (build it with `{FIRMWARE_BUILD_COMMAND}`)"
+    )]
+    NotQemuFirmware {
+        /// The file.
+        path: PathBuf,
+        /// What it is instead.
+        reason: String,
+    },
     /// QEMU could not be started.
     #[error("starting {program}: {source}")]
     Spawn {
@@ -458,6 +470,7 @@ pub struct PilLink {
     frame_index: u64,
     last_frame: Vec<u8>,
     sent: Vec<u8>,
+    received: Vec<u8>,
     boot: Downlink,
     /// The latest telemetry frame received (`None` before the first).
     telemetry: Option<Telemetry>,
@@ -466,12 +479,73 @@ pub struct PilLink {
     last_rx_frame: Vec<u8>,
 }
 
-/// Checks that `elf` exists and makes a run directory for QEMU; the directory and the path of
-/// QEMU's log in it.
-fn qemu_run_dir(elf: &Path) -> Result<(PathBuf, PathBuf), PilError> {
+/// Words the `qemu` board's firmware carries in its flash (its boot log's), and the `f405`
+/// board's never does (its logs are defmt's, by index).
+pub const QEMU_BOARD_MARK: &[u8] = b"firmware: qemu board";
+
+/// The largest firmware file read for the check, bytes (the ELFs are under 4 MiB, debug
+/// information included).
+const MAX_ELF_BYTES: u64 = 64 << 20;
+
+/// Checks, before QEMU starts, that `elf` is the `qemu` board's firmware: an ELF file
+/// (`0x7F 'E' 'L' 'F'`), 32-bit little-endian, for ARM (`e_machine` 40), carrying
+/// [`QEMU_BOARD_MARK`]. Anything else is [`PilError::NotQemuFirmware`], saying what it is;
+/// a missing file is [`PilError::ElfMissing`].
+pub fn check_firmware_elf(elf: &Path) -> Result<(), PilError> {
     if !elf.is_file() {
         return Err(PilError::ElfMissing(elf.to_path_buf()));
     }
+    let not = |reason: String| PilError::NotQemuFirmware {
+        path: elf.to_path_buf(),
+        reason,
+    };
+    // The ELF header first (52 bytes for a 32-bit ELF), then the whole file for the mark.
+    let mut bytes = Vec::new();
+    File::open(elf)?.take(52).read_to_end(&mut bytes)?;
+    if bytes.get(..4) != Some(b"\x7fELF".as_slice()) {
+        let head: Vec<String> = bytes.iter().take(4).map(|b| format!("{b:02x}")).collect();
+        return Err(not(format!(
+            "not an ELF file (it starts with {}, not 7f 45 4c 46)",
+            if head.is_empty() {
+                "nothing".into()
+            } else {
+                head.join(" ")
+            }
+        )));
+    }
+    let machine = bytes.get(18..20).map(|m| u16::from_le_bytes([m[0], m[1]]));
+    if bytes.get(4) != Some(&1) || bytes.get(5) != Some(&1) || machine != Some(40) {
+        return Err(not(format!(
+            "an ELF, but not for a 32-bit little-endian ARM core (class {:?}, data {:?}, \
+             machine {machine:?}; the firmware's is class 1, data 1, machine 40)",
+            bytes.get(4),
+            bytes.get(5)
+        )));
+    }
+    bytes.clear();
+    File::open(elf)?
+        .take(MAX_ELF_BYTES + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_ELF_BYTES {
+        return Err(not(format!("an ARM ELF larger than {MAX_ELF_BYTES} bytes")));
+    }
+    if !bytes
+        .windows(QEMU_BOARD_MARK.len())
+        .any(|w| w == QEMU_BOARD_MARK)
+    {
+        return Err(not(
+            "an ARM ELF, but not the qemu board's build (the f405 board's? it is built \
+             without --features qemu and would not run in QEMU)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks that `elf` is the `qemu` board's firmware ([`check_firmware_elf`]) and makes a run
+/// directory for QEMU; the directory and the path of QEMU's log in it.
+fn qemu_run_dir(elf: &Path) -> Result<(PathBuf, PathBuf), PilError> {
+    check_firmware_elf(elf)?;
     let dir = run_dir()?;
     let log = dir.join("qemu.log");
     Ok((dir, log))
@@ -630,6 +704,7 @@ impl PilLink {
             frame_index: 0,
             last_frame: Vec::new(),
             sent: Vec::new(),
+            received: Vec::new(),
             boot: Downlink::default(),
             telemetry: None,
             rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
@@ -680,6 +755,12 @@ impl PilLink {
     /// Every byte written to the link so far, faults included.
     pub fn sent_bytes(&self) -> &[u8] {
         &self.sent
+    }
+
+    /// Every byte read from the link so far, in order, whatever it was (frames of every kind,
+    /// garbage, idle zeros): a capture of the firmware's side of the link.
+    pub fn received_bytes(&self) -> &[u8] {
+        &self.received
     }
 
     /// The last measurement frame encoded (as [`PilLink::resend`] repeats it: before faults),
@@ -929,7 +1010,10 @@ impl PilLink {
                     self.exited = Some(status);
                     return Err(self.exited_error(status));
                 }
-                Ok(n) => self.rx_buf.extend(&chunk[..n]),
+                Ok(n) => {
+                    self.rx_buf.extend(&chunk[..n]);
+                    self.received.extend_from_slice(&chunk[..n]);
+                }
                 Err(e)
                     if matches!(
                         e.kind(),
@@ -1250,5 +1334,41 @@ mod tests {
     fn a_missing_elf_is_named() {
         let e = PilLink::spawn(Path::new("/nonexistent/firmware"), &PilOptions::default());
         assert!(matches!(e, Err(PilError::ElfMissing(_))));
+    }
+
+    /// Each check of the firmware file, on files made to fail only it.
+    #[test]
+    fn only_the_qemu_boards_arm_elf_passes() {
+        let dir = run_dir().expect("a directory");
+        let file = |name: &str, bytes: &[u8]| {
+            let p = dir.join(name);
+            fs::write(&p, bytes).expect("written");
+            p
+        };
+        // A 32-bit little-endian ARM ELF header, then the mark or not.
+        let mut arm = vec![0x7f, b'E', b'L', b'F', 1, 1, 1];
+        arm.resize(18, 0);
+        arm.extend_from_slice(&40u16.to_le_bytes());
+        arm.resize(64, 0);
+        let mut good = arm.clone();
+        good.extend_from_slice(QEMU_BOARD_MARK);
+        let mut x86 = good.clone();
+        x86[18] = 62;
+        let mut big = good.clone();
+        big[5] = 2;
+        let reason = |p: &Path| match check_firmware_elf(p) {
+            Err(PilError::NotQemuFirmware { reason, .. }) => reason,
+            other => panic!("{other:?}"),
+        };
+        assert!(check_firmware_elf(&file("good", &good)).is_ok());
+        assert!(
+            reason(&file("text", b"#!/bin/sh\n"))
+                .contains("not an ELF file (it starts with 23 21 2f 62")
+        );
+        assert!(reason(&file("empty", b"")).contains("starts with nothing"));
+        assert!(reason(&file("x86", &x86)).contains("machine Some(62)"));
+        assert!(reason(&file("big-endian", &big)).contains("data Some(2)"));
+        assert!(reason(&file("f405", &arm)).contains("the f405 board's?"));
+        remove_run_dir(&dir);
     }
 }

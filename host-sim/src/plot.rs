@@ -13,6 +13,11 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
+use ibvs_core::estimator::{TipGeometry, TipSight};
+use ibvs_core::schedule::DESIGN;
+use ibvs_core::{ControllerConfig, Mode, Procedure};
+use serde::Deserialize;
+
 use crate::output::OutputError;
 use crate::sim::{Run, Sample};
 use crate::world::drogue::CAPTURE_RADIUS_M;
@@ -191,8 +196,122 @@ fn cross_track(area: &Area<'_>, run: &Run) -> Result<(), String> {
     Ok(())
 }
 
-/// The six panels of one docking run.
-pub fn write_dock_figure(path: &Path, run: &Run) -> Result<(), OutputError> {
+/// Every controller mode with its name, in the order of the type's variants (read from
+/// [`Mode`]'s own serde form: a mode added to the type appears here by itself).
+pub fn mode_names() -> Vec<(Mode, String)> {
+    (0u32..)
+        .map_while(|i| {
+            let m = Mode::deserialize(
+                serde::de::value::U32Deserializer::<serde::de::value::Error>::new(i),
+            )
+            .ok()?;
+            Some((m, format!("{m:?}")))
+        })
+        .collect()
+}
+
+/// The image error the controller steers to zero, at every step whose frame it accepted:
+/// the drogue's image point minus its aim, and the aim's name. The paper's IBVS law aims at
+/// its configured convergence point. The refuelling procedure steers the drogue's offset from
+/// the probe tip to zero, so its aim is where the drogue appears when dead ahead of the tip
+/// at the frame's depth: the tip's image point scaled by the tip's depth over the drogue's
+/// (as `TipGeometry::drogue_from_tip` reads a frame at trim attitude), the tip's image point
+/// being the running average of its measured ones the step keeps ([`TipSight`], replayed here
+/// over the run's frames exactly as the step does it, from the configured geometry).
+pub fn steered_image_error(
+    samples: &[Sample],
+    cfg: &ControllerConfig,
+) -> (&'static str, Vec<(f64, [f64; 2])>) {
+    let accepted = samples
+        .iter()
+        .filter(|s| s.output.measurement_error.is_none());
+    let error = |s: &Sample, aim: [f32; 2]| {
+        (
+            s.time_s,
+            [
+                f64::from(s.measurement.image_x - aim[0]),
+                f64::from(s.measurement.image_y - aim[1]),
+            ],
+        )
+    };
+    match cfg.procedure {
+        Procedure::Paper => {
+            let aim = cfg.ibvs.convergence_point;
+            (
+                "the convergence point",
+                accepted.map(|s| error(s, aim)).collect(),
+            )
+        }
+        Procedure::Refuelling => {
+            let geometry =
+                TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, DESIGN.trim.theta_rad);
+            let tip_depth_m = geometry.tip_from_camera_m()[2];
+            let mut sight = TipSight::new(&geometry);
+            let e = accepted
+                .map(|s| {
+                    sight.observe(s.measurement.probe_tip, &cfg.estimator);
+                    // An accepted frame's depth is positive.
+                    let scale = tip_depth_m / s.measurement.depth_m;
+                    error(s, sight.image().map(|t| t * scale))
+                })
+                .collect();
+            ("the point dead ahead of the probe tip", e)
+        }
+    }
+}
+
+/// The controller's mode over time, on an axis labelled with the modes' names.
+fn modes(area: &Area<'_>, run: &Run) -> Result<(), String> {
+    let names = mode_names();
+    let index = |m: Mode| names.iter().position(|(n, _)| *n == m).unwrap_or_default() as f64;
+    let pts = over_time(run, |s| Some(index(s.output.mode)));
+    let t_end = pts.last().map_or(1.0, |p| p.0.max(1e-3));
+    let top = names.len() as f64 - 0.5;
+    let mut chart = ChartBuilder::on(area)
+        .caption("Mode", ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(120)
+        .build_cartesian_2d(0.0..t_end, -0.5..top)
+        .map_err(dbg)?;
+    let label = |v: &f64| {
+        let k = v.round();
+        if (v - k).abs() < 1e-6 && k >= 0.0 {
+            names
+                .get(k as usize)
+                .map(|(_, n)| n.clone())
+                .unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc("time, s")
+        .y_labels(names.len() * 2 + 1)
+        .y_label_formatter(&label)
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(dbg)?;
+    // A step line: each mode holds until the next sample.
+    let mut step = Vec::with_capacity(pts.len() * 2);
+    for w in pts.windows(2) {
+        step.push(w[0]);
+        step.push((w[1].0, w[0].1));
+    }
+    step.extend(pts.last());
+    chart
+        .draw_series(LineSeries::new(step, BLACK.stroke_width(2)))
+        .map_err(dbg)?;
+    Ok(())
+}
+
+/// The six panels of one docking run flown with `cfg`.
+pub fn write_dock_figure(
+    path: &Path,
+    run: &Run,
+    cfg: &ControllerConfig,
+) -> Result<(), OutputError> {
     figure(path, (1500, 1400), |root| {
         let p = root.split_evenly((3, 2));
         let c = PALETTE;
@@ -219,24 +338,22 @@ pub fn write_dock_figure(path: &Path, run: &Run) -> Result<(), OutputError> {
                 ),
             ],
         )?;
-        let tracked = |f: fn(&Sample) -> f32| {
-            move |s: &Sample| s.measurement.tracked.then(|| f64::from(f(s)))
-        };
+        let (aim_name, errors) = steered_image_error(&run.samples, cfg);
         lines(
             &p[1],
-            "Image error (normalised) while tracked",
+            &format!("Image error the controller steers: drogue minus {aim_name}"),
             "time, s",
-            "e",
+            "e (normalised image)",
             &[
                 (
                     "e_x",
                     c[1],
-                    over_time(run, tracked(|s| s.measurement.image_x)),
+                    errors.iter().map(|&(t, e)| (t, e[0])).collect(),
                 ),
                 (
                     "e_y",
                     c[2],
-                    over_time(run, tracked(|s| s.measurement.image_y)),
+                    errors.iter().map(|&(t, e)| (t, e[1])).collect(),
                 ),
             ],
         )?;
@@ -309,16 +426,97 @@ pub fn write_dock_figure(path: &Path, run: &Run) -> Result<(), OutputError> {
             ],
         )?;
         cross_track(&p[4], run)?;
-        lines(
-            &p[5],
-            "Mode (0 standby, 1 approach, 2 terminal, 3 docked, 4 breakaway)",
-            "time, s",
-            "mode",
-            &[(
-                "mode",
-                BLACK,
-                over_time(run, |s| Some(f64::from(s.output.mode as u8))),
-            )],
-        )
+        modes(&p[5], run)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::receiver::{ReceiverState, StateVector};
+    use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
+    use nalgebra::Vector3;
+
+    fn sample(t: f64, image: [f32; 2], depth_m: f32, probe_tip: Option<[f32; 2]>) -> Sample {
+        Sample {
+            time_s: t,
+            measurement: CameraMeasurement {
+                seq: 1,
+                tracked: true,
+                image_x: image[0],
+                image_y: image[1],
+                depth_m,
+                probe_tip,
+            },
+            output: ibvs_core::ControllerOutput::default(),
+            drogue_tanker_m: Vector3::zeros(),
+            tip_tanker_m: Vector3::zeros(),
+            drogue_from_tip_m: Vector3::zeros(),
+            tip_velocity_mps: Vector3::zeros(),
+            state: ReceiverState::from_vector(&StateVector::zeros()),
+        }
+    }
+
+    #[test]
+    fn the_mode_axis_names_every_mode_of_the_type_in_its_order() {
+        let names = mode_names();
+        let got: Vec<&str> = names.iter().map(|(_, n)| n.as_str()).collect();
+        assert_eq!(
+            got,
+            [
+                "Standby",
+                "PreContact",
+                "Approach",
+                "Terminal",
+                "Docked",
+                "MissedApproach",
+                "Breakaway"
+            ]
+        );
+        for (k, (m, _)) in names.iter().enumerate() {
+            assert_eq!(*m as usize, k, "{m:?} plotted at its own number");
+        }
+    }
+
+    /// The refuelling procedure's aim: a drogue dead ahead of the probe tip has no error
+    /// (its raw image point is well off the centre: the set-back camera's parallax); a tip
+    /// sighting moves the aim as the step's running average does; a rejected frame is not
+    /// plotted. The paper's: the image point minus the convergence point.
+    #[test]
+    fn the_image_error_is_measured_from_the_aim_the_controller_steers_to() {
+        let cfg = ControllerConfig::default();
+        let g = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, DESIGN.trim.theta_rad);
+        let (tip, tz) = (g.tip_image(), g.tip_from_camera_m()[2]);
+        let depth = 4.0_f32;
+        let ahead = tip.map(|t| t * (tz / depth));
+        assert!(
+            ahead[1].abs() > 0.01,
+            "the raw image point is off the centre: {ahead:?}"
+        );
+        let seen = [tip[0] + 0.01, tip[1]];
+        let mut rejected = sample(0.02, [0.3, 0.3], depth, None);
+        rejected.output.measurement_error = Some(MeasurementError::NotTracked);
+        let samples = [
+            sample(0.0, ahead, depth, None),
+            rejected,
+            sample(0.04, ahead, depth, Some(seen)),
+        ];
+        let (name, e) = steered_image_error(&samples, &cfg);
+        assert_eq!(name, "the point dead ahead of the probe tip");
+        assert_eq!(e.len(), 2, "the rejected frame is left out");
+        assert_eq!(e[0], (0.0, [0.0, 0.0]));
+        let k = cfg.estimator.tip_sight_filter;
+        let moved = (tip[0] + k * (seen[0] - tip[0])) * (tz / depth);
+        assert_eq!(e[1], (0.04, [f64::from(ahead[0] - moved), 0.0]));
+        assert!(e[1].1[0] < 0.0);
+
+        let mut paper = ControllerConfig::paper();
+        paper.ibvs.convergence_point = [0.1, -0.05];
+        let (name, e) = steered_image_error(&[sample(0.0, [0.25, 0.05], depth, None)], &paper);
+        assert_eq!(name, "the convergence point");
+        assert_eq!(
+            e,
+            [(0.0, [f64::from(0.25_f32 - 0.1), f64::from(0.05_f32 + 0.05)])]
+        );
+    }
 }

@@ -40,6 +40,9 @@ use crate::world::turbulence::TurbulencePreset;
 use crate::world::wake::WakeParams;
 
 pub mod controller;
+mod input;
+
+pub use input::MAX_SCENARIO_BYTES;
 
 pub use controller::{ControllerKeyError, ControllerSection};
 
@@ -455,6 +458,35 @@ pub enum ScenarioError {
     /// Neither a preset name nor a readable file.
     #[error("no preset or file named {0:?} (presets: {presets})", presets = PRESETS.iter().map(|p| p.0).collect::<Vec<_>>().join(", "))]
     NotFound(String),
+    /// An error found in a file: its name, the line of the key it names (when found).
+    #[error("{name}{}: {source}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    InFile {
+        /// The file (or preset).
+        name: String,
+        /// The 1-based line of the key.
+        line: Option<usize>,
+        /// The error.
+        source: Box<ScenarioError>,
+    },
+    /// A key of the `[controller]` table that is unknown or of the wrong type.
+    #[error(transparent)]
+    ControllerKey(#[from] ControllerKeyError),
+    /// A key in a form that was renamed: what to write instead.
+    #[error("{old} is the form before the controller's settings became one table: write {new}")]
+    Renamed {
+        /// What the file wrote.
+        old: String,
+        /// The current form.
+        new: String,
+    },
+    /// A file larger than any scenario (not read beyond the limit).
+    #[error("{path} is larger than {limit} bytes: not a scenario file")]
+    TooLarge {
+        /// Path.
+        path: String,
+        /// The limit, bytes.
+        limit: u64,
+    },
     /// The file could not be read.
     #[error("{path}: {source}")]
     Io {
@@ -714,9 +746,10 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
 impl ScenarioFile {
     /// Parses and validates TOML text; `source_name` names it in errors.
     pub fn parse(text: &str, source_name: &str) -> Result<Self, ScenarioError> {
+        input::precheck(text, source_name)?;
         let f: ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Parse {
             source_name: source_name.into(),
-            message: e.to_string(),
+            message: input::clip(&e.to_string()),
         })?;
         f.validate()?;
         Ok(f)
@@ -733,11 +766,9 @@ impl ScenarioFile {
         if !path.exists() {
             return Err(ScenarioError::NotFound(name_or_path.into()));
         }
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
-            path: name_or_path.into(),
-            source,
-        })?;
-        let mut f = Self::parse(&text, name_or_path)?;
+        let text = input::read_limited(path, name_or_path)?;
+        let mut f =
+            Self::parse(&text, name_or_path).map_err(|e| input::in_file(e, name_or_path, &text))?;
         if f.name == ScenarioFile::default().name {
             f.name = path
                 .file_stem()
@@ -761,13 +792,6 @@ impl ScenarioFile {
             8.0,
             "1..=8",
         )?;
-        for (v, key) in self.initial.drogue_minus_probe_m.iter().zip([
-            "initial.drogue_minus_probe_m[0] (forward)",
-            "initial.drogue_minus_probe_m[1] (right)",
-            "initial.drogue_minus_probe_m[2] (down)",
-        ]) {
-            range(key, *v, -30.0, 30.0, "-30..=30")?;
-        }
         range(
             "initial.drogue_minus_probe_m[0] (forward)",
             self.initial.drogue_minus_probe_m[0],
@@ -775,6 +799,12 @@ impl ScenarioFile {
             30.0,
             "1.5..=30 (ahead of the probe, outside the blind range)",
         )?;
+        for (v, key) in self.initial.drogue_minus_probe_m[1..].iter().zip([
+            "initial.drogue_minus_probe_m[1] (right)",
+            "initial.drogue_minus_probe_m[2] (down)",
+        ]) {
+            range(key, *v, -30.0, 30.0, "-30..=30")?;
+        }
         if let Some(s) = self.turbulence.sigma_mps {
             range("turbulence.sigma_mps", s, 0.0, 10.0, "0..=10")?;
         }
@@ -852,6 +882,24 @@ impl ScenarioFile {
                 "controller.camera.position_body_m and camera.mount_error_m (or its dispersion) \
                  both give where the controller believes the camera is: give one",
             ));
+        }
+        const _: () = assert!(
+            ibvs_core::predictor::MAX_NAV_LATENCY_STEPS == 4,
+            "the message below"
+        );
+        // The INS's latency is the controller's unless [controller] gives its own: then it is
+        // the latency predictor's to compensate, and bounded by it (named as written).
+        if !self.controller.nav_latency_given
+            && self.navigation.installed_latency_steps()
+                > ibvs_core::predictor::MAX_NAV_LATENCY_STEPS
+        {
+            return Err(ScenarioError::OutOfRange {
+                key: "navigation.ins.latency_steps",
+                value: self.navigation.ins.latency_steps.to_string(),
+                allowed: "0..=4 (the controller's latency predictor compensates at most 4 \
+                          control periods; give [controller] nav_latency_steps to fly a longer \
+                          latency uncompensated)",
+            });
         }
         self.controller_config().validate()?;
         self.validate_dispersion()

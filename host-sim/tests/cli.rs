@@ -115,6 +115,8 @@ fn dock_writes_its_files_and_pbvs_is_selectable() {
     let dir = std::env::temp_dir().join(format!("host-sim-cli-{}", std::process::id()));
     let (ok, stdout, stderr) = host_sim(&[
         "dock",
+        "--scenario",
+        "paper-level1",
         "--controller",
         "pbvs",
         "--out",
@@ -157,7 +159,10 @@ fn bad_arguments_are_named_errors() {
     assert!(stderr.contains("--start takes three values"), "{stderr}");
     let (ok, _, stderr) = host_sim(&["trim", "--speed-mps=-5"]);
     assert!(!ok);
-    assert!(stderr.contains("invalid condition"), "{stderr}");
+    assert!(
+        stderr.contains("--speed-mps = -5 must be finite and positive"),
+        "{stderr}"
+    );
     let (ok, _, stderr) = host_sim(&["dock", "--ibvs-gains", "0,2,0.3,3,1", "--no-files"]);
     assert!(!ok);
     assert!(
@@ -341,4 +346,262 @@ fn cli_pil_without_the_firmware_elf_names_the_build_command() {
             && stderr.contains("--no-default-features --features qemu --target-dir target/qemu"),
         "{stderr}"
     );
+}
+
+/// A scratch directory of its own for a test.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("host-sim-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    dir
+}
+
+/// Runs host-sim, which must fail; its stderr.
+fn refused(args: &[&str]) -> String {
+    let (ok, stdout, stderr) = host_sim(args);
+    assert!(!ok, "host-sim {args:?} succeeded: {stdout}");
+    stderr
+}
+
+/// Counts, times and the number of threads are bounded, each refused by its option's name
+/// with the range it takes.
+#[test]
+fn counts_times_and_jobs_out_of_range_are_refused_by_name() {
+    let e = refused(&["montecarlo", "--scenario", "calm", "--runs", "0"]);
+    assert!(e.contains("--runs") && e.contains("0 is not in 1.."), "{e}");
+    let e = refused(&[
+        "paper",
+        "--seeds",
+        "0",
+        "--out",
+        "/nonexistent/never-written",
+    ]);
+    assert!(
+        e.contains("--seeds") && e.contains("0 is not in 1..=10000"),
+        "{e}"
+    );
+    for jobs in ["0", "100000"] {
+        let e = refused(&[
+            "montecarlo",
+            "--scenario",
+            "calm",
+            "--runs",
+            "1",
+            "--jobs",
+            jobs,
+        ]);
+        assert!(
+            e.contains("--jobs") && e.contains("is not in 1..=256"),
+            "{jobs}: {e}"
+        );
+    }
+    let e = refused(&[
+        "montecarlo",
+        "--scenario",
+        "calm",
+        "--runs",
+        "1",
+        "--shards",
+        "0",
+    ]);
+    assert!(e.contains("--shards"), "{e}");
+    for t in ["nan", "-5", "inf"] {
+        let e = refused(&[
+            "dock",
+            "--animate",
+            &format!("--still-s={t}"),
+            "--out",
+            "/nonexistent/x",
+        ]);
+        assert!(
+            e.contains("--still-s") && e.contains("finite, at least 0"),
+            "{t}: {e}"
+        );
+    }
+}
+
+/// trim takes a flight condition inside the models' range, named as the option is written.
+#[test]
+fn trim_outside_the_models_range_is_refused_by_name() {
+    let e = refused(&["trim", "--altitude-m=-5"]);
+    assert!(
+        e.contains("--altitude-m = -5 must be finite and positive"),
+        "{e}"
+    );
+    let e = refused(&["trim", "--altitude-m=100"]);
+    assert!(
+        e.contains("--altitude-m = 100 m is out of range: allowed"),
+        "{e}"
+    );
+    let e = refused(&["trim", "--speed-mps=400"]);
+    assert!(e.contains("--speed-mps") && e.contains("Mach"), "{e}");
+}
+
+/// A law the chosen procedure does not fly is an error, not ignored; the start is checked
+/// against its own range, named by the option.
+#[test]
+fn dock_options_that_would_be_ignored_or_out_of_range_are_named() {
+    let e = refused(&["dock", "--controller", "pbvs", "--no-files"]);
+    assert!(
+        e.contains("--controller pbvs")
+            && e.contains("paper's procedure only")
+            && e.contains("refuelling procedure"),
+        "{e}"
+    );
+    let e = refused(&["dock", "--start", "100,0,0", "--no-files"]);
+    assert!(
+        e.contains("--start: initial.drogue_minus_probe_m[0] (forward) = 100 is out of range: allowed 1.5..=30"),
+        "{e}"
+    );
+    let e = refused(&["dock", "--start", "8,45,0", "--no-files"]);
+    assert!(
+        e.contains("--start") && e.contains("[1] (right) = 45") && e.contains("-30..=30"),
+        "{e}"
+    );
+}
+
+/// Scenario files: read with a size limit; every error names the file, the line of the key
+/// as written and the allowed range; an old form gets the current one; long input is not
+/// echoed whole.
+#[test]
+fn scenario_file_errors_name_the_file_the_line_the_key_and_the_range() {
+    let e = refused(&["dock", "--scenario", "/dev/zero", "--no-files"]);
+    assert!(e.contains("/dev/zero is larger than 1048576 bytes"), "{e}");
+
+    let dir = scratch("bad-scenarios");
+    let file = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("written");
+        p.to_str().expect("UTF-8").to_string()
+    };
+    let cases = [
+        (
+            "range.toml",
+            "name = \"r\"\n[camera]\npixel_noise_px = 50.0\n",
+            ":3: camera.pixel_noise_px = 50 is out of range: allowed 0..=20",
+        ),
+        (
+            "latency.toml",
+            "[navigation.ins]\nlatency_steps = 5\n",
+            ":2: navigation.ins.latency_steps = 5 is out of range: allowed 0..=4",
+        ),
+        (
+            "old.toml",
+            "name = \"old\"\ncontroller = \"ibvs\"\n",
+            ":2: controller = \"ibvs\" is the form before the controller's settings became one table: write a [controller] table: [controller] with law = \"ibvs\"",
+        ),
+        (
+            "unknown.toml",
+            "[controller]\nprocedure = \"paper\"\n\n[controller.ibvs]\nk9_mps = 1.0\n",
+            ":5: controller.ibvs.k9_mps is not a controller setting",
+        ),
+        (
+            "type.toml",
+            "[controller.ibvs]\nk1_mps = \"fast\"\n",
+            ":2: controller.ibvs.k1_mps: invalid type: string \"fast\"",
+        ),
+        (
+            "rule.toml",
+            "[controller]\n\n[controller.ibvs]\nk2_mps = -1.0\n",
+            ":4: controller.ibvs.k2_mps is NotPositive",
+        ),
+        (
+            "start.toml",
+            "[initial]\ndrogue_minus_probe_m = [100.0, 0.0, 0.0]\n",
+            ":2: initial.drogue_minus_probe_m[0] (forward) = 100 is out of range: allowed 1.5..=30",
+        ),
+    ];
+    for (name, text, want) in cases {
+        let path = file(name, text);
+        let e = refused(&["dock", "--scenario", &path, "--no-files"]);
+        assert!(e.contains(&format!("{path}{want}")), "{name}: {e}");
+    }
+    // A long garbage line: the message quotes a bounded part of it.
+    let long = file(
+        "long.toml",
+        &format!("x = {}\n", "#".repeat(0) + &"y".repeat(500_000)),
+    );
+    let e = refused(&["dock", "--scenario", &long, "--no-files"]);
+    assert!(e.len() < 2_000, "{} bytes of stderr", e.len());
+    assert!(
+        e.contains(&long) && e.contains("more bytes not shown"),
+        "{e}"
+    );
+    let binary = dir.join("binary.toml");
+    std::fs::write(&binary, [0xffu8, 0xfe, 0x00, 0x41]).expect("written");
+    let e = refused(&["dock", "--scenario", binary.to_str().unwrap(), "--no-files"]);
+    assert!(e.contains("not UTF-8 text"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A shard given twice to merge is named.
+#[test]
+fn merging_a_shard_twice_is_refused() {
+    let dir = scratch("merge-twice");
+    let m1 = dir.join("m1");
+    std::fs::create_dir_all(&m1).expect("a directory");
+    let m1 = m1.to_str().unwrap();
+    let also = format!("{m1}/../m1");
+    let e = refused(&[
+        "montecarlo",
+        "merge",
+        m1,
+        &also,
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(e.contains("is given twice") && e.contains(m1), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// The firmware file for processor in the loop is checked before QEMU starts: a file that
+/// is not an ELF, an ELF for another machine, and another board's build, each named.
+#[test]
+fn a_firmware_file_that_is_not_the_qemu_boards_is_refused_before_qemu_starts() {
+    let dir = scratch("not-firmware");
+    let text = dir.join("notes.txt");
+    std::fs::write(&text, "not firmware\n").expect("written");
+    let e = refused(&[
+        "dock",
+        "--pil",
+        "--firmware",
+        text.to_str().unwrap(),
+        "--no-files",
+    ]);
+    assert!(
+        e.contains("is not the qemu board's firmware: not an ELF file")
+            && e.contains("--features qemu"),
+        "{e}"
+    );
+    let host = env!("CARGO_BIN_EXE_host-sim");
+    let e = refused(&["dock", "--pil", "--firmware", host, "--no-files"]);
+    assert!(e.contains("not for a 32-bit little-endian ARM core"), "{e}");
+    // The f405 board's build (the test command builds it; else an ARM ELF without the
+    // qemu board's mark stands in for it).
+    let f405 = std::env::var("IBVS_FIRMWARE_F405_ELF").unwrap_or_else(|_| {
+        let mut arm = vec![0x7f, b'E', b'L', b'F', 1, 1, 1];
+        arm.resize(18, 0);
+        arm.extend_from_slice(&40u16.to_le_bytes());
+        arm.resize(4096, 0);
+        let p = dir.join("f405-like.elf");
+        std::fs::write(&p, arm).expect("written");
+        p.to_str().unwrap().to_string()
+    });
+    let e = refused(&[
+        "montecarlo",
+        "--scenario",
+        "calm",
+        "--runs",
+        "1",
+        "--pil",
+        "--firmware",
+        &f405,
+        "--out",
+        dir.join("mc").to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("not the qemu board's build (the f405 board's?"),
+        "{e}"
+    );
+    assert!(!dir.join("mc").exists(), "nothing flown");
+    std::fs::remove_dir_all(dir).ok();
 }

@@ -568,7 +568,7 @@ fn cli_runs_a_fifty_run_campaign_in_shards_and_merges_it() {
         &dir("all"),
     ]);
     assert!(ok, "{stderr}");
-    assert!(line.starts_with("paper-level2: 50 runs, docked"), "{line}");
+    assert!(line.starts_with("paper-level2: 50 runs, success"), "{line}");
     let s = summary(&root.join("all"));
     assert_eq!(s.runs, 50);
     // Measured: 50 of these 50; 98.96 % over 5,000 runs. At that rate three or more
