@@ -25,8 +25,7 @@
 //! `cargo test --release -p ibvs-core --test fuzz_step -- --ignored`.
 
 use ibvs_core::controller::StatusFlags;
-use ibvs_core::estimator::TipGeometry;
-use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, TRIM};
+use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
 use ibvs_core::inner::{Channel, TrimPoint};
 use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use ibvs_core::measurement::CameraMeasurement;
@@ -42,6 +41,9 @@ use proptest::prelude::*;
 
 mod common;
 use common::{bits, cases};
+#[path = "common/sortie.rs"]
+mod sortie;
+use sortie::{request, sortie_sequence};
 
 /// Longest input sequence, steps (longer than the blind phase's 250-step limit).
 const MAX_STEPS: usize = 600;
@@ -94,15 +96,6 @@ fn nav_states() -> impl Strategy<Value = NavSample> {
             n
         }),
         1 => prop::array::uniform12(bits()).prop_map(NavSample::from_array),
-    ]
-}
-
-fn request() -> impl Strategy<Value = ModeRequest> {
-    prop_oneof![
-        20 => Just(ModeRequest::None),
-        4 => Just(ModeRequest::Engage),
-        1 => Just(ModeRequest::Abort),
-        1 => Just(ModeRequest::Reset),
     ]
 }
 
@@ -163,153 +156,6 @@ fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
                 input
             })
             .collect()
-    })
-}
-
-/// One segment of a refuelling sortie as a camera and a navigation system could report it:
-/// the drogue held near the station, the receiver closing on it (depth falling 0.02 m a
-/// step, 1 m/s, from wherever it is), the drogue off to one side, frames lost, navigation
-/// lost, probe contact, or an operator request. Offsets and depths are the drogue's from the
-/// probe tip; the frames are what the configured (set-back) camera sees of that.
-#[derive(Debug, Clone, Copy)]
-enum Segment {
-    /// Near the station (3 m), offset `(right, down)` m, for `n` steps.
-    Station(f32, f32, usize),
-    /// Closing from the current depth at 1 m/s toward `end` m with the offset `(right, down)`.
-    Close(f32, f32, f32),
-    /// The drogue far off the probe's line for `n` steps.
-    Off(usize),
-    /// Untracked frames for `n` steps.
-    Lost(usize),
-    /// The same depth and offset for `n` steps (the receiver stopped closing).
-    Hold(usize),
-    /// Non-finite navigation for `n` steps.
-    NavBad(usize),
-    /// Navigation reporting the receiver 2.5 m/s faster than the tanker for `n` steps.
-    NavFast(usize),
-    /// Navigation at another flight condition `(airspeed, altitude)` for `n` steps: inside
-    /// the docking envelope or not.
-    Condition(f32, f32, usize),
-    /// The probe-contact discrete for `n` steps (with the last frame content).
-    Contact(usize),
-    /// A request, once.
-    Request(ModeRequest),
-}
-
-fn segment() -> impl Strategy<Value = Segment> {
-    let small = || -0.06_f32..0.06;
-    prop_oneof![
-        6 => (small(), small(), 30_usize..120).prop_map(|(x, y, n)| Segment::Station(x, y, n)),
-        4 => (-0.3_f32..0.6, small(), small()).prop_map(|(end, x, y)| Segment::Close(end, x, y)),
-        2 => (-0.6_f32..0.0, -0.4_f32..0.4, -0.4_f32..0.4)
-            .prop_map(|(end, x, y)| Segment::Close(end, x, y)),
-        1 => (1_usize..40).prop_map(Segment::Off),
-        1 => (100_usize..200).prop_map(Segment::Hold),
-        1 => prop_oneof![1_usize..10, 20_usize..200].prop_map(Segment::Lost),
-        1 => prop_oneof![1_usize..5, 20_usize..40].prop_map(Segment::NavBad),
-        1 => (1_usize..5).prop_map(Segment::NavFast),
-        1 => (prop_oneof![95.0_f32..175.0, Just(150.0)], prop_oneof![400.0_f32..8100.0, Just(6000.0)], 1_usize..60)
-            .prop_map(|(v, h, n)| Segment::Condition(v, h, n)),
-        2 => (1_usize..80).prop_map(Segment::Contact),
-        1 => request().prop_map(Segment::Request),
-    ]
-}
-
-/// A refuelling sortie for the configuration `cfg`'s camera: engage at the station, then
-/// segments; at most [`MAX_STEPS`] x 4 steps (long enough for pre-contact dwell, approach,
-/// capture and retries).
-fn sortie_sequence(cfg: ControllerConfig) -> impl Strategy<Value = Vec<ControllerInput>> {
-    let tip =
-        TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad).tip_from_camera_m();
-    (any::<u32>(), prop::collection::vec(segment(), 1..30)).prop_map(move |(start, segs)| {
-        let mut out = Vec::new();
-        let mut seq = start;
-        let (mut depth, mut x, mut y) = (3.0_f32, 0.0_f32, 0.0_f32);
-        // A frame of the drogue at `(x, y)` right and down of the tip, `d` ahead of it.
-        let mut push = |out: &mut Vec<ControllerInput>, tracked: bool, x: f32, y: f32, d: f32| {
-            seq = seq.wrapping_add(1);
-            let k = out.len();
-            let z = d + tip[2];
-            out.push(ControllerInput {
-                measurement: CameraMeasurement {
-                    seq,
-                    tracked: tracked && z > 0.05,
-                    // A tracker's noise, so the frozen check does not reject the frames.
-                    image_x: (x + tip[0]) / z + 1e-4 * (k % 5) as f32,
-                    image_y: (y + tip[1]) / z,
-                    depth_m: z.max(0.05),
-                    probe_tip: None,
-                },
-                nav: NavSample::default(),
-                probe_contact: false,
-                request: if k == 0 {
-                    ModeRequest::Engage
-                } else {
-                    ModeRequest::None
-                },
-            });
-        };
-        push(&mut out, true, 0.0, 0.0, depth);
-        for seg in segs {
-            let edit = |out: &mut Vec<ControllerInput>, f: &dyn Fn(&mut ControllerInput)| {
-                if let Some(last) = out.last_mut() {
-                    f(last);
-                }
-            };
-            match seg {
-                Segment::Station(sx, sy, n) => {
-                    (x, y, depth) = (sx, sy, 3.0);
-                    (0..n).for_each(|_| push(&mut out, true, x, y, depth));
-                }
-                Segment::Close(end, cx, cy) => {
-                    (x, y) = (cx, cy);
-                    while depth > end && out.len() < MAX_STEPS * 4 {
-                        depth -= 0.02;
-                        // The navigation has the receiver 1 m/s faster than the tanker.
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = 1.0);
-                    }
-                }
-                Segment::Off(n) => (0..n).for_each(|_| push(&mut out, true, 1.0, 0.8, depth)),
-                Segment::Lost(n) => (0..n).for_each(|_| push(&mut out, false, x, y, depth)),
-                Segment::Hold(n) => (0..n).for_each(|_| push(&mut out, true, x, y, depth)),
-                Segment::NavBad(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = f32::NAN);
-                    }
-                }
-                Segment::NavFast(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = 2.5);
-                    }
-                }
-                Segment::Condition(v, h, n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| {
-                            i.nav.condition = FlightCondition {
-                                true_airspeed_mps: v,
-                                altitude_m: h,
-                            }
-                        });
-                    }
-                }
-                Segment::Contact(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.probe_contact = true);
-                    }
-                }
-                Segment::Request(r) => {
-                    push(&mut out, true, x, y, depth);
-                    edit(&mut out, &|i| i.request = r);
-                }
-            }
-        }
-        out.truncate(MAX_STEPS * 4);
-        out
     })
 }
 
