@@ -206,6 +206,12 @@ fn point_velocity_mps(nav: &NavSample, d: &Design, p: [f64; 3]) -> [f64; 3] {
     let u = v * alpha.cos() * beta.cos() + (qr * z - rr * y);
     let side = v * beta.sin() + (rr * x - pr * z);
     let w = v * alpha.sin() * beta.cos() + (pr * y - qr * x);
+    let [north, east, down] = rotate(&tanker_from_body(phi, theta, psi), [u, side, w]);
+    [east, down, north - d.speed]
+}
+
+/// Tanker axes (north, east, down) from body axes for the 3-2-1 Euler angles.
+fn tanker_from_body(phi: f64, theta: f64, psi: f64) -> [[f64; 3]; 3] {
     let (sf, cf, st, ct, sp, cp) = (
         phi.sin(),
         phi.cos(),
@@ -214,10 +220,16 @@ fn point_velocity_mps(nav: &NavSample, d: &Design, p: [f64; 3]) -> [f64; 3] {
         psi.sin(),
         psi.cos(),
     );
-    let north = ct * cp * u + (sf * st * cp - cf * sp) * side + (cf * st * cp + sf * sp) * w;
-    let east = ct * sp * u + (sf * st * sp + cf * cp) * side + (cf * st * sp - sf * cp) * w;
-    let down = -st * u + sf * ct * side + cf * ct * w;
-    [east, down, north - d.speed]
+    [
+        [ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
+        [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp],
+        [-st, sf * ct, cf * ct],
+    ]
+}
+
+/// `m v`.
+fn rotate(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
 }
 
 /// Camera axes (right, down, boresight) from body axes for a boresight pitched down by `p`:
@@ -728,20 +740,7 @@ impl Model {
                     self.design.theta + f64::from(l.lon.theta_rad),
                     f64::from(l.lat.psi_rad),
                 );
-                let (sf, cf, st, ct, sp, cp) = (
-                    phi.sin(),
-                    phi.cos(),
-                    theta.sin(),
-                    theta.cos(),
-                    psi.sin(),
-                    psi.cos(),
-                );
-                let t = [
-                    [ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
-                    [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp],
-                    [-st, sf * ct, cf * ct],
-                ];
-                let v: [f64; 3] = [0, 1, 2].map(|i| (0..3).map(|c| t[i][c] * b[c]).sum());
+                let v = rotate(&tanker_from_body(phi, theta, psi), b);
                 ([v[1], v[2]], v[0])
             }
         }
