@@ -66,3 +66,9 @@ export IBVS_FIRMWARE_ELF="$PWD/target/qemu/thumbv7em-none-eabihf/release/firmwar
 export IBVS_FIRMWARE_F405_ELF="$PWD/target/thumbv7em-none-eabihf/release/firmware"
 cargo test --locked --workspace --all-targets
 cargo test --locked --workspace --doc
+# The cycle model applied to every path of the path benchmark's sortie as it ran (QEMU's
+# execution log), each path within the same ELF's static bound: a modelled run above the
+# bound fails (docs/benchmarks.md, "The cycle bound"). The test build's target-bench: no
+# other build.
+cargo run --locked -p target-bench -- \
+    --path-cycles target/qemu-bench/thumbv7em-none-eabihf/release/firmware

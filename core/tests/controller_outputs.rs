@@ -241,55 +241,127 @@ impl Sortie {
     }
 }
 
-#[test]
-fn the_approach_and_the_capture_close_at_the_contact_speed() {
-    let mut s = Sortie::to_approach();
+/// An approach flown after `far_steps` steps held 0.5 m beyond the station (outside its depth
+/// tolerance: never cleared), then closing to it at 0.5 m/s and dwelling there until cleared,
+/// then closing at 1 m/s to 0.2 m from the drogue, which stays centred and at rest: the
+/// contact speed the air at the approach's start asks for, computed here from the drogue
+/// estimator's documented model, and every output from the approach's first step on.
+///
+/// The model (`ibvs_core::estimator`, module doc): the measured activity (the average of the
+/// drogue's lateral velocity squared) starts at engage at the configured PSD's stationary
+/// variance `q τ / 2` and, the drogue at rest and nothing moving sideways, decays by
+/// `1 - Ts / T` (`activity_time_constant_s`) at every step after it; the approach is flown in
+/// rough air, at `rough_air_contact_speed_mps`, when its square root at the approach's first
+/// step is above `rough_air_drogue_speed_mps`.
+fn approach_after(far_steps: usize) -> (f32, Vec<ControllerOutput>) {
+    let mut s = Sortie::new();
     let cfg = *s.ctl.config();
-    let slew = cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S;
-    let contact = cfg.refuelling.contact_speed_mps;
-    // The receiver closes at 1 m/s; the drogue, centred, stays where it is.
-    let mut depth = 3.0_f32;
-    let mut last = s.step([0.0, 0.0, depth], 0.0).v_des;
-    let mut terminal_steps = 0;
-    for k in 0..400 {
-        depth -= 0.02;
-        let out = s.step([0.0, 0.0, depth], 1.0);
-        let v = out.v_des;
-        match out.mode {
-            Mode::Approach => {
-                // From the station's zero toward the contact speed, one slew step a step.
-                if v.z_fwd_mps < contact - 0.1 {
-                    assert!(
-                        (v.z_fwd_mps - last.z_fwd_mps - slew).abs() < 1e-4,
-                        "step {k} of the approach: {} -> {}",
-                        last.z_fwd_mps,
-                        v.z_fwd_mps
-                    );
-                }
-            }
-            Mode::Terminal => {
-                // The capture keeps closing at the contact speed (the calm air's, or the
-                // rough air's 1.3 m/s: the estimator starts from the configured air's
-                // activity, and the approach keeps the speed it started with), the drogue
-                // at rest: never slower, never slowing.
-                terminal_steps += 1;
-                assert!(
-                    v.z_fwd_mps >= contact - 0.05 && v.z_fwd_mps >= last.z_fwd_mps - 1e-3,
-                    "step {terminal_steps} of the capture: {} -> {}",
-                    last.z_fwd_mps,
-                    v.z_fwd_mps
-                );
-            }
-            m => panic!("left the approach for {m:?} at {depth} m"),
+    let (est, rc) = (&cfg.estimator, &cfg.refuelling);
+    let far = rc.station_depth_m + 0.5;
+    assert_eq!(s.step([0.0, 0.0, far], 0.0).mode, Mode::PreContact);
+    let mut engaged_steps = 0_i32;
+    let mut approach = None;
+    let mut depth = far;
+    for k in 0..far_steps + 400 {
+        let closing = if k >= far_steps && depth > rc.station_depth_m {
+            0.5
+        } else {
+            0.0
+        };
+        depth = (depth - closing * Controller::PERIOD_S).max(rc.station_depth_m);
+        engaged_steps += 1;
+        let out = s.step([0.0, 0.0, depth], closing);
+        if k < far_steps {
+            assert_eq!(out.mode, Mode::PreContact, "cleared outside the station");
         }
-        last = v;
-        if depth < 0.2 {
+        if out.mode == Mode::Approach {
+            approach = Some(out);
             break;
         }
     }
+    let first = approach.expect("cleared to the approach at a steady station");
+    let ts = f64::from(Controller::PERIOD_S);
+    let activity = f64::from(est.drogue_accel_psd_m2ps3) * f64::from(est.drogue_time_constant_s)
+        / 2.0
+        * (1.0 - ts / f64::from(est.activity_time_constant_s)).powi(engaged_steps);
+    let rms = activity.sqrt();
+    let threshold = f64::from(rc.rough_air_drogue_speed_mps);
     assert!(
-        terminal_steps > 20,
-        "the capture was flown {terminal_steps} steps"
+        (rms - threshold).abs() > 0.01,
+        "the air at the approach's start ({rms} m/s RMS) must be clearly one side of {threshold}"
+    );
+    let contact = if rms > threshold {
+        rc.rough_air_contact_speed_mps
+    } else {
+        rc.contact_speed_mps
+    };
+    // The receiver closes at 1 m/s; the drogue, centred, stays where it is.
+    let mut outputs = vec![first];
+    while depth >= 0.2 {
+        depth -= 0.02;
+        outputs.push(s.step([0.0, 0.0, depth], 1.0));
+    }
+    (contact, outputs)
+}
+
+/// The approach and the capture close at the contact speed of the air the approach started
+/// in, both ways: calm (the estimator's measured activity decayed below the rough-air
+/// threshold while the receiver was held off the station) and rough (cleared at once, the
+/// activity still near the configured PSD's). The forward command slews up from the
+/// station's zero one step of `max_accel_mps2` at a time, never passes that speed, and is
+/// at it (plus the drogue's estimated forward velocity) when the capture ends.
+#[test]
+fn the_approach_and_the_capture_close_at_the_contact_speed() {
+    let cfg = ControllerConfig::default();
+    let rc = cfg.refuelling;
+    let slew = cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S;
+    let mut speeds = Vec::new();
+    for far_steps in [0, 200] {
+        let (contact, outputs) = approach_after(far_steps);
+        speeds.push(contact);
+        let mut last = 0.0_f32;
+        let mut terminal_steps = 0;
+        for (k, out) in outputs.iter().enumerate() {
+            let v = out.v_des.z_fwd_mps;
+            let drogue = out.estimate.drogue_velocity_mps[2];
+            let at = format!("held off {far_steps} steps, step {k} in {:?}", out.mode);
+            assert!(
+                matches!(out.mode, Mode::Approach | Mode::Terminal),
+                "{at}: left the approach"
+            );
+            terminal_steps += usize::from(out.mode == Mode::Terminal);
+            // Never faster than the contact speed chosen (the drogue at rest: its estimated
+            // forward velocity is a few mm/s at most).
+            assert!(
+                v <= contact + drogue + 1e-4 && drogue.abs() < 0.01,
+                "{at}: {v} m/s, contact speed {contact}, drogue {drogue}"
+            );
+            // Below it, one slew step a step: never stopping short of it.
+            if k > 0 && last < contact - slew {
+                assert!(
+                    (v - last - slew).abs() < 1e-4,
+                    "{at}: {last} -> {v} m/s toward {contact}"
+                );
+            }
+            last = v;
+        }
+        assert!(
+            terminal_steps > 20,
+            "the capture was flown {terminal_steps} steps"
+        );
+        let end = outputs.last().expect("outputs");
+        assert_eq!(end.mode, Mode::Terminal);
+        let want = contact + end.estimate.drogue_velocity_mps[2];
+        assert!(
+            (end.v_des.z_fwd_mps - want).abs() < 0.01,
+            "held off {far_steps} steps: the capture ends at {} m/s, not {want}",
+            end.v_des.z_fwd_mps
+        );
+    }
+    // Cleared at once the air reads rough (the estimator starts cautious); held off 4 s, calm.
+    assert_eq!(
+        speeds,
+        [rc.rough_air_contact_speed_mps, rc.contact_speed_mps]
     );
 }
 

@@ -7,13 +7,16 @@
 //!   arbitrary frame numbers, contact discretes and operator requests);
 //! - every mode transition is one of the documented graph's (`ibvs_core::mode`, module doc,
 //!   and `docs/conventions.md`, "Modes"), for both procedures: an independent model of the
-//!   transition tables is stepped beside the controller and must agree on the mode, the
-//!   breakaway reason, the refused-engage bit and (refuelling) the attempt and the no-go
-//!   reason at every step. (Paper: the model cannot know the dead-reckoned depth of the
-//!   blind phase, so it accepts `PassedDroguePlane` from terminal at any step. Refuelling:
-//!   the model decides on the estimate and the gate's predicted miss that the step reports,
-//!   as the table says; what those numbers are is the estimator's business, tested on its
-//!   own. Everything else it predicts exactly.)
+//!   transition tables (`common/mode_model.rs`) is stepped beside the controller and must
+//!   agree on the mode, the breakaway reason, the refused-engage bit, the measurement's and
+//!   the navigation's errors and (refuelling) the attempt and the no-go reason at every
+//!   step. The model reads only the inputs: it computes in `f64`, by its own formulas, the
+//!   frame's and the navigation's validity, the docking envelope and the scheduled trim, the
+//!   tracked point's forward speed and the probe tip's velocity, the drogue estimator with
+//!   its gate, the predicted miss and the drogue's RMS speed. (A decision within a relative
+//!   1e-4 of its threshold, where single precision may fall either way, is followed both
+//!   ways; so is the paper's blind phase, whose dead-reckoned depth the model does not keep:
+//!   from terminal it accepts `PassedDroguePlane` at any step.)
 //!
 //! The byte-level test feeds garbage, valid measurement frames and frames with a flipped byte
 //! into [`FrameDecoder`] and steps the controller on every frame it accepts, as the firmware
@@ -25,23 +28,23 @@
 //! `cargo test --release -p ibvs-core --test fuzz_step -- --ignored`.
 
 use ibvs_core::controller::StatusFlags;
-use ibvs_core::estimator::TipGeometry;
-use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, TRIM};
-use ibvs_core::inner::{Channel, TrimPoint};
-use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use ibvs_core::measurement::CameraMeasurement;
-use ibvs_core::mode::ModeConfig;
 use ibvs_core::nav::{FlightCondition, NavSample};
-use ibvs_core::schedule::{DesignPoint, design_at};
 use ibvs_core::wire::{FrameDecoder, MAX_FRAME_LEN, Uplink, encode_uplink};
 use ibvs_core::{
-    BreakawayReason, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
-    ModeRequest, NoGoReason, OuterLaw, Procedure, RefuellingConfig,
+    Controller, ControllerConfig, ControllerInput, ControllerOutput, ModeRequest, OuterLaw,
+    RefuellingConfig,
 };
 use proptest::prelude::*;
 
 mod common;
 use common::{bits, cases};
+#[path = "common/sortie.rs"]
+mod sortie;
+use sortie::{request, sortie_sequence};
+#[path = "common/mode_model.rs"]
+mod mode_model;
+use mode_model::Models;
 
 /// Longest input sequence, steps (longer than the blind phase's 250-step limit).
 const MAX_STEPS: usize = 600;
@@ -94,15 +97,6 @@ fn nav_states() -> impl Strategy<Value = NavSample> {
             n
         }),
         1 => prop::array::uniform12(bits()).prop_map(NavSample::from_array),
-    ]
-}
-
-fn request() -> impl Strategy<Value = ModeRequest> {
-    prop_oneof![
-        20 => Just(ModeRequest::None),
-        4 => Just(ModeRequest::Engage),
-        1 => Just(ModeRequest::Abort),
-        1 => Just(ModeRequest::Reset),
     ]
 }
 
@@ -166,552 +160,12 @@ fn input_sequence() -> impl Strategy<Value = Vec<ControllerInput>> {
     })
 }
 
-/// One segment of a refuelling sortie as a camera and a navigation system could report it:
-/// the drogue held near the station, the receiver closing on it (depth falling 0.02 m a
-/// step, 1 m/s, from wherever it is), the drogue off to one side, frames lost, navigation
-/// lost, probe contact, or an operator request. Offsets and depths are the drogue's from the
-/// probe tip; the frames are what the configured (set-back) camera sees of that.
-#[derive(Debug, Clone, Copy)]
-enum Segment {
-    /// Near the station (3 m), offset `(right, down)` m, for `n` steps.
-    Station(f32, f32, usize),
-    /// Closing from the current depth at 1 m/s toward `end` m with the offset `(right, down)`.
-    Close(f32, f32, f32),
-    /// The drogue far off the probe's line for `n` steps.
-    Off(usize),
-    /// Untracked frames for `n` steps.
-    Lost(usize),
-    /// The same depth and offset for `n` steps (the receiver stopped closing).
-    Hold(usize),
-    /// Non-finite navigation for `n` steps.
-    NavBad(usize),
-    /// Navigation reporting the receiver 2.5 m/s faster than the tanker for `n` steps.
-    NavFast(usize),
-    /// Navigation at another flight condition `(airspeed, altitude)` for `n` steps: inside
-    /// the docking envelope or not.
-    Condition(f32, f32, usize),
-    /// The probe-contact discrete for `n` steps (with the last frame content).
-    Contact(usize),
-    /// A request, once.
-    Request(ModeRequest),
-}
-
-fn segment() -> impl Strategy<Value = Segment> {
-    let small = || -0.06_f32..0.06;
-    prop_oneof![
-        6 => (small(), small(), 30_usize..120).prop_map(|(x, y, n)| Segment::Station(x, y, n)),
-        4 => (-0.3_f32..0.6, small(), small()).prop_map(|(end, x, y)| Segment::Close(end, x, y)),
-        2 => (-0.6_f32..0.0, -0.4_f32..0.4, -0.4_f32..0.4)
-            .prop_map(|(end, x, y)| Segment::Close(end, x, y)),
-        1 => (1_usize..40).prop_map(Segment::Off),
-        1 => (100_usize..200).prop_map(Segment::Hold),
-        1 => prop_oneof![1_usize..10, 20_usize..200].prop_map(Segment::Lost),
-        1 => prop_oneof![1_usize..5, 20_usize..40].prop_map(Segment::NavBad),
-        1 => (1_usize..5).prop_map(Segment::NavFast),
-        1 => (prop_oneof![95.0_f32..175.0, Just(150.0)], prop_oneof![400.0_f32..8100.0, Just(6000.0)], 1_usize..60)
-            .prop_map(|(v, h, n)| Segment::Condition(v, h, n)),
-        2 => (1_usize..80).prop_map(Segment::Contact),
-        1 => request().prop_map(Segment::Request),
-    ]
-}
-
-/// A refuelling sortie for the configuration `cfg`'s camera: engage at the station, then
-/// segments; at most [`MAX_STEPS`] x 4 steps (long enough for pre-contact dwell, approach,
-/// capture and retries).
-fn sortie_sequence(cfg: ControllerConfig) -> impl Strategy<Value = Vec<ControllerInput>> {
-    let tip =
-        TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad).tip_from_camera_m();
-    (any::<u32>(), prop::collection::vec(segment(), 1..30)).prop_map(move |(start, segs)| {
-        let mut out = Vec::new();
-        let mut seq = start;
-        let (mut depth, mut x, mut y) = (3.0_f32, 0.0_f32, 0.0_f32);
-        // A frame of the drogue at `(x, y)` right and down of the tip, `d` ahead of it.
-        let mut push = |out: &mut Vec<ControllerInput>, tracked: bool, x: f32, y: f32, d: f32| {
-            seq = seq.wrapping_add(1);
-            let k = out.len();
-            let z = d + tip[2];
-            out.push(ControllerInput {
-                measurement: CameraMeasurement {
-                    seq,
-                    tracked: tracked && z > 0.05,
-                    // A tracker's noise, so the frozen check does not reject the frames.
-                    image_x: (x + tip[0]) / z + 1e-4 * (k % 5) as f32,
-                    image_y: (y + tip[1]) / z,
-                    depth_m: z.max(0.05),
-                    probe_tip: None,
-                },
-                nav: NavSample::default(),
-                probe_contact: false,
-                request: if k == 0 {
-                    ModeRequest::Engage
-                } else {
-                    ModeRequest::None
-                },
-            });
-        };
-        push(&mut out, true, 0.0, 0.0, depth);
-        for seg in segs {
-            let edit = |out: &mut Vec<ControllerInput>, f: &dyn Fn(&mut ControllerInput)| {
-                if let Some(last) = out.last_mut() {
-                    f(last);
-                }
-            };
-            match seg {
-                Segment::Station(sx, sy, n) => {
-                    (x, y, depth) = (sx, sy, 3.0);
-                    (0..n).for_each(|_| push(&mut out, true, x, y, depth));
-                }
-                Segment::Close(end, cx, cy) => {
-                    (x, y) = (cx, cy);
-                    while depth > end && out.len() < MAX_STEPS * 4 {
-                        depth -= 0.02;
-                        // The navigation has the receiver 1 m/s faster than the tanker.
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = 1.0);
-                    }
-                }
-                Segment::Off(n) => (0..n).for_each(|_| push(&mut out, true, 1.0, 0.8, depth)),
-                Segment::Lost(n) => (0..n).for_each(|_| push(&mut out, false, x, y, depth)),
-                Segment::Hold(n) => (0..n).for_each(|_| push(&mut out, true, x, y, depth)),
-                Segment::NavBad(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = f32::NAN);
-                    }
-                }
-                Segment::NavFast(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.nav.lon.v_mps = 2.5);
-                    }
-                }
-                Segment::Condition(v, h, n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| {
-                            i.nav.condition = FlightCondition {
-                                true_airspeed_mps: v,
-                                altitude_m: h,
-                            }
-                        });
-                    }
-                }
-                Segment::Contact(n) => {
-                    for _ in 0..n {
-                        push(&mut out, true, x, y, depth);
-                        edit(&mut out, &|i| i.probe_contact = true);
-                    }
-                }
-                Segment::Request(r) => {
-                    push(&mut out, true, x, y, depth);
-                    edit(&mut out, &|i| i.request = r);
-                }
-            }
-        }
-        out.truncate(MAX_STEPS * 4);
-        out
-    })
-}
-
-/// What the transition table allows after one step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Allowed {
-    /// Exactly this mode and reason.
-    Exactly(Mode, Option<BreakawayReason>),
-    /// Terminal continues, or it passed the plane (dead-reckoned depth, unknown here).
-    TerminalOrPassed,
-    /// The time limit, or it passed the plane first.
-    TimeoutOrPassed,
-}
-
-/// An independent model of the mode tables of `ibvs_core::mode`.
-#[derive(Debug, Default)]
-struct ModeModel {
-    mode: Mode,
-    reason: Option<BreakawayReason>,
-    meas_invalid: u16,
-    nav_invalid: u16,
-    terminal_steps: u32,
-    /// The last valid navigation sample (the controller flies on it while navigation is bad).
-    last_nav: NavSample,
-    /// Its flight condition is inside the docking envelope.
-    in_envelope: bool,
-    /// The gain schedule's design in use: at the last condition inside the envelope before
-    /// this step (the flight loop loads it after a step, for the next).
-    design: DesignPoint,
-    /// Refuelling: the attempt, the last no-go, steps stable at the station, steps in the
-    /// mode, steps since engage.
-    attempt: u8,
-    no_go: Option<NoGoReason>,
-    stable: u32,
-    mode_steps: u32,
-    sortie_steps: u32,
-}
-
-impl ModeModel {
-    /// Checks one step of the controller against the table and follows it.
-    fn step(
-        &mut self,
-        input: &ControllerInput,
-        out: &ControllerOutput,
-        cfg: &ControllerConfig,
-        drogue_rms_mps: f32,
-    ) -> Result<(), String> {
-        // The navigation bookkeeping both tables read (the last valid sample, the run of
-        // invalid ones).
-        if out.nav_error.is_none() {
-            self.last_nav = input.nav;
-            self.nav_invalid = 0;
-        } else {
-            self.nav_invalid = self.nav_invalid.saturating_add(1);
-        }
-        let (c, v, h) = (
-            &self.last_nav.condition,
-            &SCHEDULE_SPEEDS_MPS,
-            &SCHEDULE_ALTITUDES_M,
-        );
-        self.in_envelope = (v[0]..=v[v.len() - 1]).contains(&c.true_airspeed_mps)
-            && (h[0]..=h[h.len() - 1]).contains(&c.altitude_m);
-        let next_design = if self.in_envelope {
-            Some(design_at(*c).map_err(|e| format!("inside, yet {e}"))?)
-        } else {
-            None
-        };
-        match cfg.procedure {
-            Procedure::Paper => self.step_paper(input, out, &cfg.modes, timeout_steps(cfg))?,
-            Procedure::Refuelling => self.step_refuelling(input, out, cfg, drogue_rms_mps)?,
-        }
-        // The flight loop's follow-up after the step: the next step flies this design.
-        if let Some(d) = next_design {
-            self.design = d;
-        }
-        Ok(())
-    }
-
-    fn step_paper(
-        &mut self,
-        input: &ControllerInput,
-        out: &ControllerOutput,
-        cfg: &ModeConfig,
-        timeout_steps: u32,
-    ) -> Result<(), String> {
-        use Allowed::*;
-        let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
-        let before = self.mode;
-        let engaged = matches!(before, Mode::Approach | Mode::Terminal | Mode::Docked);
-        let mut refused = false;
-        let stay = Exactly(before, self.reason);
-        let brk = |r| Exactly(Mode::Breakaway, Some(r));
-        // Not in the paper's procedure: the controller never reaches them.
-        if matches!(before, Mode::PreContact | Mode::MissedApproach) {
-            return Err(format!("{before:?} in the paper's procedure"));
-        }
-        let allowed = if input.request == ModeRequest::Reset && before != Mode::Standby {
-            Exactly(Mode::Standby, None)
-        } else if engaged && input.request == ModeRequest::Abort {
-            brk(BreakawayReason::Abort)
-        } else if engaged && self.nav_invalid > cfg.hold_limit_steps {
-            brk(BreakawayReason::NavLost)
-        } else if !self.in_envelope {
-            if engaged {
-                brk(BreakawayReason::OutsideDockingEnvelope)
-            } else {
-                refused = before == Mode::Standby && input.request == ModeRequest::Engage;
-                stay
-            }
-        } else if matches!(before, Mode::Approach | Mode::Terminal)
-            && camera_fwd_mps(&self.last_nav, &self.design.trim) > cfg.overspeed_mps
-        {
-            brk(BreakawayReason::Overspeed)
-        } else {
-            match before {
-                Mode::Standby if input.request == ModeRequest::Engage => {
-                    if meas_ok && nav_ok {
-                        Exactly(Mode::Approach, None)
-                    } else {
-                        refused = true;
-                        stay
-                    }
-                }
-                Mode::Standby | Mode::Breakaway => stay,
-                Mode::Approach if !meas_ok => {
-                    self.meas_invalid = self.meas_invalid.saturating_add(1);
-                    if self.meas_invalid > cfg.hold_limit_steps {
-                        brk(BreakawayReason::MeasurementLost)
-                    } else {
-                        stay
-                    }
-                }
-                Mode::Approach => {
-                    self.meas_invalid = 0;
-                    let t = out.target;
-                    if t.depth_m <= cfg.terminal_depth_m {
-                        if t.radial_offset_m() > cfg.terminal_max_offset_m {
-                            brk(BreakawayReason::PredictedMiss)
-                        } else {
-                            Exactly(Mode::Terminal, None)
-                        }
-                    } else {
-                        stay
-                    }
-                }
-                Mode::Terminal => {
-                    self.terminal_steps += 1;
-                    if input.probe_contact {
-                        Exactly(Mode::Docked, None)
-                    } else if self.terminal_steps > timeout_steps {
-                        TimeoutOrPassed
-                    } else {
-                        TerminalOrPassed
-                    }
-                }
-                Mode::Docked if !input.probe_contact => brk(BreakawayReason::ContactLost),
-                Mode::Docked => stay,
-                Mode::PreContact | Mode::MissedApproach => stay,
-            }
-        };
-        let got = (out.mode, out.breakaway_reason);
-        let passed = (Mode::Breakaway, Some(BreakawayReason::PassedDroguePlane));
-        let ok = match allowed {
-            Exactly(m, r) => got == (m, r),
-            TerminalOrPassed => got == (Mode::Terminal, None) || got == passed,
-            TimeoutOrPassed => {
-                got == (Mode::Breakaway, Some(BreakawayReason::TerminalTimeout)) || got == passed
-            }
-        };
-        if !ok {
-            return Err(format!(
-                "{before:?} -> {got:?}, the table allows {allowed:?} (model {self:?})"
-            ));
-        }
-        if out.status.contains(StatusFlags::ENGAGE_REFUSED) != refused {
-            return Err(format!("engage refused bit: expected {refused}"));
-        }
-        if out.mode != before {
-            self.meas_invalid = 0;
-            self.terminal_steps = 0;
-        }
-        (self.mode, self.reason) = got;
-        Ok(())
-    }
-
-    /// The refuelling procedure's table (module doc of `ibvs_core::mode`), on the estimate
-    /// and the predicted miss the step reports.
-    fn step_refuelling(
-        &mut self,
-        input: &ControllerInput,
-        out: &ControllerOutput,
-        cfg: &ControllerConfig,
-        drogue_rms_mps: f32,
-    ) -> Result<(), String> {
-        let (md, rc) = (&cfg.modes, &cfg.refuelling);
-        let steps = |t: f32| (t / Controller::PERIOD_S).round() as u32;
-        let (nav_ok, meas_ok) = (out.nav_error.is_none(), out.measurement_error.is_none());
-        let before = (self.mode, self.reason, self.attempt, self.no_go);
-        let engaged = !matches!(self.mode, Mode::Standby | Mode::Breakaway);
-        let mut refused = false;
-        let e = out.estimate;
-        let tip = tip_velocity_mps(&self.last_nav, &self.design);
-        let sq = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
-        // The late gate's radius: the final radius at the plane, rising linearly with the
-        // depth to the late radius at the taper depth (slope first, as the core rounds).
-        let late_gate = |depth_m: f32| {
-            let slope =
-                (rc.late_gate_radius_m - rc.late_gate_final_radius_m) / rc.late_gate_taper_m;
-            (rc.late_gate_final_radius_m + slope * depth_m.max(0.0)).min(rc.late_gate_radius_m)
-        };
-        let brk = |m: &mut Self, r| {
-            m.mode = Mode::Breakaway;
-            m.reason = Some(r);
-        };
-        let no_go = |m: &mut Self, r| {
-            m.no_go = Some(r);
-            if m.attempt >= rc.max_attempts {
-                brk(m, BreakawayReason::AttemptsExhausted);
-            } else {
-                m.mode = Mode::MissedApproach;
-            }
-        };
-        if input.request == ModeRequest::Reset && self.mode != Mode::Standby {
-            (self.mode, self.reason, self.attempt, self.no_go) = (Mode::Standby, None, 0, None);
-        } else if engaged && input.request == ModeRequest::Abort {
-            brk(self, BreakawayReason::Abort);
-        } else if engaged && self.nav_invalid > md.hold_limit_steps {
-            brk(self, BreakawayReason::NavLost);
-        } else if !self.in_envelope {
-            if engaged {
-                brk(self, BreakawayReason::OutsideDockingEnvelope);
-            } else {
-                refused = self.mode == Mode::Standby && input.request == ModeRequest::Engage;
-            }
-        } else if matches!(
-            self.mode,
-            Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
-        ) && tip[2] > md.overspeed_mps
-        {
-            brk(self, BreakawayReason::Overspeed);
-        } else {
-            if engaged {
-                self.sortie_steps += 1;
-                self.mode_steps += 1;
-            }
-            if matches!(
-                self.mode,
-                Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
-            ) {
-                self.meas_invalid = if meas_ok {
-                    0
-                } else {
-                    self.meas_invalid.saturating_add(1)
-                };
-            }
-            let lost = self.meas_invalid > md.hold_limit_steps;
-            let late = self.sortie_steps > steps(rc.sortie_budget_s);
-            let at_station = (e.depth_m - rc.station_depth_m).abs() <= rc.station_depth_tol_m;
-            match self.mode {
-                Mode::Standby if input.request == ModeRequest::Engage => {
-                    if meas_ok && nav_ok {
-                        (self.mode, self.attempt, self.no_go) = (Mode::PreContact, 1, None);
-                        self.sortie_steps = 0;
-                    } else {
-                        refused = true;
-                    }
-                }
-                Mode::Standby | Mode::Breakaway => {}
-                Mode::PreContact if lost => brk(self, BreakawayReason::MeasurementLost),
-                Mode::PreContact if late => brk(self, BreakawayReason::SortieTimeout),
-                Mode::PreContact if e.depth_m < rc.station_depth_m - rc.station_overrun_m => {
-                    brk(self, BreakawayReason::StationOverrun)
-                }
-                Mode::PreContact => {
-                    let sq_tol = |v: f32| v * v;
-                    // Rough air (the drogue's measured RMS speed above the threshold) has
-                    // its own offset tolerance.
-                    let offset_tol = if drogue_rms_mps > rc.rough_air_drogue_speed_mps {
-                        rc.rough_air_station_offset_tol_m
-                    } else {
-                        rc.station_offset_tol_m
-                    };
-                    let stable = sq(e.mean_offset_m) <= sq_tol(offset_tol)
-                        && at_station
-                        && sq([e.drogue_velocity_mps[0], e.drogue_velocity_mps[1]])
-                            <= sq_tol(rc.station_drogue_speed_tol_mps)
-                        && sq([tip[0], tip[1]]) <= sq_tol(rc.station_relative_speed_tol_mps);
-                    if meas_ok {
-                        self.stable = if stable { self.stable + 1 } else { 0 };
-                    }
-                    if self.stable >= steps(rc.station_dwell_s)
-                        && meas_ok
-                        && sq(e.offset_m) <= sq_tol(rc.station_clear_offset_m)
-                    {
-                        (self.mode, self.no_go) = (Mode::Approach, None);
-                    }
-                }
-                Mode::Approach if lost => brk(self, BreakawayReason::MeasurementLost),
-                Mode::Approach if sq(e.offset_m) > rc.abort_offset_m * rc.abort_offset_m => {
-                    no_go(self, NoGoReason::OffsetTooLarge)
-                }
-                Mode::Approach if e.depth_m <= rc.commit_depth_m => {
-                    if out.predicted_miss_m > rc.gate_radius_m {
-                        no_go(self, NoGoReason::PredictedMiss);
-                    } else {
-                        self.mode = Mode::Terminal;
-                    }
-                }
-                Mode::Approach => {}
-                Mode::Terminal if input.probe_contact => self.mode = Mode::Docked,
-                Mode::Terminal if e.depth_m < -rc.overshoot_m => {
-                    no_go(self, NoGoReason::PassedDroguePlane)
-                }
-                Mode::Terminal if self.mode_steps > steps(rc.capture_timeout_s) => {
-                    no_go(self, NoGoReason::CaptureTimeout)
-                }
-                Mode::Terminal if meas_ok && out.predicted_miss_m > late_gate(e.depth_m) => {
-                    no_go(self, NoGoReason::LateNoGo)
-                }
-                Mode::Terminal if meas_ok && e.closing_mps(tip[2]) < rc.capture_min_closing_mps => {
-                    no_go(self, NoGoReason::ClosingTooSlow)
-                }
-                Mode::Terminal => {}
-                Mode::MissedApproach
-                    if u32::from(self.meas_invalid) > steps(rc.reacquire_limit_s) =>
-                {
-                    brk(self, BreakawayReason::MeasurementLost)
-                }
-                Mode::MissedApproach if late => brk(self, BreakawayReason::SortieTimeout),
-                Mode::MissedApproach => {
-                    if self.mode_steps >= steps(rc.missed_clear_s) && meas_ok && at_station {
-                        self.mode = Mode::PreContact;
-                        self.attempt += 1;
-                    }
-                }
-                Mode::Docked if !input.probe_contact => brk(self, BreakawayReason::ContactLost),
-                Mode::Docked => {}
-            }
-        }
-        if self.mode != Mode::Breakaway {
-            self.reason = None;
-        }
-        let want = (self.mode, self.reason, self.attempt, self.no_go);
-        let got = (out.mode, out.breakaway_reason, out.attempt, out.no_go);
-        if got != want {
-            return Err(format!(
-                "{before:?} -> {got:?}, the table gives {want:?} (model {self:?})"
-            ));
-        }
-        if out.status.contains(StatusFlags::ENGAGE_REFUSED) != refused {
-            return Err(format!("engage refused bit: expected {refused}"));
-        }
-        if self.mode != before.0 {
-            (self.meas_invalid, self.mode_steps, self.stable) = (0, 0, 0);
-        }
-        Ok(())
-    }
-}
-
-/// The probe tip's velocity relative to the tanker, `[right, down, forward]`, for a
-/// navigation sample, as the refuelling procedure's inner loops output it (`C x` with the
-/// lever arm at the probe tip; the engine power column is zero).
-fn tip_velocity_mps(nav: &NavSample, design: &DesignPoint) -> [f32; 3] {
-    let tip = ControllerConfig::default().probe_tip_body_m;
-    let lon = Channel::new(
-        &design.lon,
-        &lever_arm_lon(tip, design.trim.theta_rad),
-        [0.0; 2],
-    );
-    let lat = Channel::new(&design.lat, &lever_arm_lat(tip), [0.0; 2]);
-    let [down, fwd] = lon.output(&nav.lon_design_state(0.0));
-    let [right] = lat.output(&nav.lat_design_state());
-    [right, down, fwd]
-}
-
-/// The camera's forward speed relative to the tanker for a navigation sample, m/s: the
-/// airspeed perturbation plus the pitch rate times the lever arm of the default camera
-/// position (`docs/conventions.md`; the generated output row is `[0, 1, 0, 0, 0]` at the CG).
-/// Single-precision, one rounding, as the controller's `C x` gives it.
-fn camera_fwd_mps(nav: &NavSample, trim: &TrimPoint) -> f32 {
-    let cam = ControllerConfig::paper().camera.position_body_m;
-    let fwd_per_q = lever_arm_lon(cam, trim.theta_rad)[1][3];
-    assert_eq!(
-        ibvs_core::gains::LON.c_cg[1],
-        [0.0, 1.0, 0.0, 0.0, 0.0],
-        "output row changed"
-    );
-    nav.lon.v_mps + fwd_per_q * nav.lon.q_radps
-}
-
-/// Steps of the blind phase's time limit, as the core rounds it.
-fn timeout_steps(cfg: &ControllerConfig) -> u32 {
-    (cfg.modes.terminal_timeout_s / Controller::PERIOD_S).round() as u32
-}
-
 fn check_output(
     cfg: &ControllerConfig,
-    model: &mut ModeModel,
+    models: &mut Models,
     k: usize,
     input: &ControllerInput,
     out: &ControllerOutput,
-    drogue_rms_mps: f32,
 ) -> Result<(), TestCaseError> {
     let act = cfg.actuators;
     for (i, v) in out.command.as_array().into_iter().enumerate() {
@@ -726,17 +180,17 @@ fn check_output(
     }
     prop_assert!(!out.status.contains(StatusFlags::NON_FINITE_COMMAND));
     prop_assert!(out.v_des.is_finite());
-    model
-        .step(input, out, cfg, drogue_rms_mps)
+    models
+        .step(input, out)
         .map_err(|e| TestCaseError::fail(format!("step {k}: {e}; input {input:?}")))
 }
 
 fn check_sequence(cfg: ControllerConfig, inputs: &[ControllerInput]) -> Result<(), TestCaseError> {
     let mut ctl = Controller::new(cfg).expect("valid configuration");
-    let mut model = ModeModel::default();
+    let mut models = Models::new(cfg);
     for (k, input) in inputs.iter().enumerate() {
         let out = ctl.step(input);
-        check_output(&cfg, &mut model, k, input, &out, ctl.drogue_speed_rms_mps())?;
+        check_output(&cfg, &mut models, k, input, &out)?;
         ctl.follow_schedule();
     }
     Ok(())
@@ -792,7 +246,7 @@ fn bytes_of(chunks: &[Chunk]) -> Vec<u8> {
 /// Feeds the bytes to the decoder and steps the controller on every accepted frame.
 fn check_wire(cfg: ControllerConfig, bytes: &[u8]) -> Result<(), TestCaseError> {
     let mut ctl = Controller::new(cfg).expect("valid configuration");
-    let mut model = ModeModel::default();
+    let mut models = Models::new(cfg);
     let mut decoder = FrameDecoder::new();
     let mut k = 0;
     for &b in bytes {
@@ -802,14 +256,7 @@ fn check_wire(cfg: ControllerConfig, bytes: &[u8]) -> Result<(), TestCaseError> 
         };
         if let Some(u) = uplink {
             let out = ctl.step(&u.input);
-            check_output(
-                &cfg,
-                &mut model,
-                k,
-                &u.input,
-                &out,
-                ctl.drogue_speed_rms_mps(),
-            )?;
+            check_output(&cfg, &mut models, k, &u.input, &out)?;
             ctl.follow_schedule();
             k += 1;
         }
@@ -873,7 +320,9 @@ proptest! {
 
 /// The sortie generator reaches every row of the refuelling table that ends in a mode of its
 /// own: every no-go, every breakaway reason, docking. (Without this the property above could
-/// pass while exercising only the pre-contact station.)
+/// pass while exercising only the pre-contact station.) And the model of the tables agrees
+/// with the controller on them while rarely unsure: decisions within its band of a threshold
+/// (where it follows both outcomes) stay rare, so its verdicts are its own, not a shrug.
 #[test]
 fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
     use proptest::strategy::ValueTree;
@@ -884,11 +333,14 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
     );
     let strategy = sortie_sequence(refuelling());
     let mut seen = std::collections::BTreeSet::new();
+    let (mut steps, mut unsure, mut most) = (0, 0, 0);
     for _ in 0..256 {
         let inputs = strategy.new_tree(&mut runner).expect("a case").current();
         let mut ctl = Controller::new(refuelling()).expect("valid configuration");
+        let mut models = Models::new(refuelling());
         for input in &inputs {
             let out = ctl.step(input);
+            models.step(input, &out).expect("the model agrees");
             ctl.follow_schedule();
             seen.insert(format!("{:?}", out.mode));
             if let Some(r) = out.breakaway_reason {
@@ -898,6 +350,9 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
                 seen.insert(format!("{r:?}"));
             }
         }
+        steps += inputs.len();
+        unsure += models.unsure_steps;
+        most = most.max(models.most);
     }
     let every = [
         "PreContact",
@@ -925,6 +380,14 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
         "ContactLost",
         "Abort",
     ];
+    println!("{unsure} of {steps} steps left the model unsure; at most {most} states at once");
+    // Measured with this seed: none of 287,704 steps (the only decisions within the band are
+    // the gate's horizon at the plane with no closing speed, 206 of them, settled by the same
+    // step's output). A thousandth is the floor: past it the model would be shrugging.
+    assert!(
+        unsure * 1000 < steps,
+        "{unsure} of {steps} steps left the model of the tables unsure"
+    );
     let missing: Vec<_> = every.iter().filter(|r| !seen.contains(**r)).collect();
     assert!(
         missing.is_empty(),

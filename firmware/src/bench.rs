@@ -439,30 +439,84 @@ mod tests {
     use super::*;
     use crate::app::NoCounter;
 
+    /// The line parses as JSON (a JSON parser, not a look at its braces) into one object whose
+    /// every field has the value and the JSON type of the figure it carries: the paths by
+    /// name in `PATHS` order, the largest step, `null` for a stack not measured, the flag a
+    /// boolean, the rest numbers. A field that changes type, a missing comma or an unquoted
+    /// name fails.
     #[test]
     fn json_line_is_json() {
-        let c = Costs {
+        use serde_json::{Value, json};
+        let mut c = Costs {
             step: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10],
             step_stack_bytes: Some(200),
-            ..Costs::default()
+            steps: 321,
+            script_ok: true,
+            measurement_frame_len: 90,
+            command_frame_len: 120,
+            decode_measurement: 11,
+            decode_measurement_zero_nav: 12,
+            crc_measurement: 13,
+            encode_command: 14,
+            telemetry_frame_len: 60,
+            encode_telemetry: 15,
+            follow_schedule: 16,
+            config_frame_len: 447,
+            decode_config: 17,
+            apply_config: 18,
         };
-        let text = Json(&c, "cycles").to_string();
-        assert!(
-            text.starts_with("{\"unit\": \"cycles\", \"step\": {\"engage\": 1, "),
-            "{text}"
+        let parse = |c: &Costs, unit| -> Value {
+            let text = Json(c, unit).to_string();
+            assert!(!text.contains('\n'), "one line: {text}");
+            serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
+        };
+        let v = parse(&c, "cycles");
+        let step: serde_json::Map<String, Value> = PATHS
+            .iter()
+            .zip(c.step)
+            .map(|(p, n)| ((*p).to_string(), json!(n)))
+            .collect();
+        assert_eq!(
+            v,
+            json!({
+                "unit": "cycles",
+                "step": step,
+                "step_max": 10,
+                "step_stack_bytes": 200,
+                "steps": 321,
+                "script_ok": true,
+                "measurement_frame_bytes": 90,
+                "decode_measurement": 11,
+                "decode_measurement_zero_nav": 12,
+                "crc_measurement": 13,
+                "command_frame_bytes": 120,
+                "encode_command": 14,
+                "telemetry_frame_bytes": 60,
+                "encode_telemetry": 15,
+                "follow_schedule": 16,
+                "config_frame_bytes": 447,
+                "decode_config": 17,
+                "apply_config": 18,
+            })
         );
-        assert!(
-            text.contains("\"step_max\": 10, \"step_stack_bytes\": 200, "),
-            "{text}"
-        );
-        assert!(
-            text.ends_with(
-                "\"follow_schedule\": 0, \"config_frame_bytes\": 0, \"decode_config\": 0, \
-                 \"apply_config\": 0}"
-            ),
-            "{text}"
-        );
-        assert_eq!(text.matches('{').count(), text.matches('}').count());
+        // Every path once, by its name.
+        let names: Vec<&str> = v["step"]
+            .as_object()
+            .expect("step is an object")
+            .keys()
+            .map(String::as_str)
+            .collect();
+        let mut sorted = PATHS.to_vec();
+        sorted.sort_unstable();
+        assert_eq!(names, sorted, "every path once");
+        assert_eq!(PATHS.len(), c.step.len());
+        // A stack the counter does not measure is JSON's null, and the flag false is false.
+        c.step_stack_bytes = None;
+        c.script_ok = false;
+        let v = parse(&c, "instructions");
+        assert_eq!(v["unit"], "instructions");
+        assert_eq!(v["step_stack_bytes"], Value::Null);
+        assert_eq!(v["script_ok"], false);
     }
 
     #[test]

@@ -24,7 +24,9 @@
 //!   inputs, hose, camera image, link frames) and from it [`flight_log`] (the MCAP
 //!   flight-test log) and [`animate`] (the GIF), [`paper`] (the paper's experiments),
 //!   [`montecarlo`] (campaigns, shards, merge);
-//! - the target benchmarks are the `target-bench` binary.
+//!
+//! The target benchmarks (the firmware's instruction counts in QEMU, its static bounds) are a
+//! crate of their own, `target-bench/`, which uses this one's runs and its QEMU link.
 //!
 //! One crate, for now: its modules import each other in one direction only (no cycle; the
 //! list above is that order), so they could become library crates nested under `host-sim/`

@@ -1,7 +1,11 @@
 //! The flight-test log and the animation of a docking: recording does not change the run;
 //! the MCAP file opens with the `mcap` crate's reader and holds the documented channels, one
 //! message per control step each, whose values are the run's (the whole controller output
-//! read back); the GIF has one frame per five control steps (and the last), of the stated
+//! read back); each channel's schema is the checked-in one (`host-sim/tests/schemas/`, one
+//! file per schema name) and every message validates against it with a JSON Schema
+//! validator (the `jsonschema` crate), so a field that changes its type, appears or goes
+//! fails here until its schema file is updated (`IBVS_BLESS_SCHEMAS=1` rewrites the files
+//! from the log, for a reviewed change); the GIF has one frame per five control steps (and the last), of the stated
 //! size, and is the same bytes every time; its overlay follows the refuelling procedure
 //! (attempt, mode, estimate, the gate's decision).
 //! Processor in the loop (needs QEMU and the firmware ELF, `host_sim::pil::firmware_elf`: it
@@ -54,8 +58,63 @@ fn recorded() -> (Run, Recording) {
 /// Every message of an MCAP file: topic to (sequence, log time, JSON), in file order.
 type Messages = BTreeMap<String, Vec<(u32, u64, Value)>>;
 
-/// Per topic: message encoding, schema encoding, schema.
-type Channels = BTreeMap<String, (String, String, Value)>;
+/// One channel as the file declares it.
+struct Channel {
+    message_encoding: String,
+    schema_name: String,
+    schema_encoding: String,
+    schema: Value,
+}
+
+/// Per topic, its channel.
+type Channels = BTreeMap<String, Channel>;
+
+/// The checked-in schemas: one file per schema name.
+fn schema_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("schemas")
+}
+
+/// Every channel's schema is the checked-in file of its name, and every message of the
+/// channel validates against that file's schema (not the one in the log). With
+/// `IBVS_BLESS_SCHEMAS` set, a schema that differs rewrites its file instead (the change is
+/// then the diff of the files, for review).
+fn assert_schemas_are_the_checked_in_ones(channels: &Channels, messages: &Messages) {
+    let bless = std::env::var_os("IBVS_BLESS_SCHEMAS").is_some();
+    let mut problems = Vec::new();
+    for (topic, c) in channels {
+        let path = schema_dir().join(format!("{}.json", c.schema_name));
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let checked_in: Value = serde_json::from_str(&text).unwrap_or(Value::Null);
+        if checked_in != c.schema {
+            if bless {
+                std::fs::create_dir_all(schema_dir()).expect("schema directory");
+                let pretty = serde_json::to_string_pretty(&c.schema).expect("JSON");
+                std::fs::write(&path, pretty + "\n").expect("schema file written");
+                continue;
+            }
+            problems.push(format!(
+                "{topic}: the log's schema {} differs from {} (run with IBVS_BLESS_SCHEMAS=1 \
+                 to rewrite it after a deliberate change):\n  log:        {}\n  checked in: {}",
+                c.schema_name,
+                path.display(),
+                c.schema,
+                checked_in
+            ));
+            continue;
+        }
+        let validator = jsonschema::validator_for(&checked_in)
+            .unwrap_or_else(|e| panic!("{}: not a valid JSON Schema: {e}", path.display()));
+        for (k, (_, _, m)) in messages[topic].iter().enumerate() {
+            if let Some(e) = validator.iter_errors(m).next() {
+                problems.push(format!("{topic} message {k}: {e} at {}", e.instance_path()));
+                break;
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
 
 fn read_mcap(path: &Path) -> (Messages, Channels, Vec<u8>) {
     let bytes = std::fs::read(path).expect("log written");
@@ -68,13 +127,14 @@ fn read_mcap(path: &Path) -> (Messages, Channels, Vec<u8>) {
             .schema
             .as_ref()
             .expect("every channel has a schema");
-        channels.entry(m.channel.topic.clone()).or_insert_with(|| {
-            (
-                m.channel.message_encoding.clone(),
-                schema.encoding.clone(),
-                serde_json::from_slice(&schema.data).expect("schema is JSON"),
-            )
-        });
+        channels
+            .entry(m.channel.topic.clone())
+            .or_insert_with(|| Channel {
+                message_encoding: m.channel.message_encoding.clone(),
+                schema_name: schema.name.clone(),
+                schema_encoding: schema.encoding.clone(),
+                schema: serde_json::from_slice(&schema.data).expect("schema is JSON"),
+            });
         messages.entry(m.channel.topic.clone()).or_default().push((
             m.sequence,
             m.log_time,
@@ -142,6 +202,7 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
     let stats = flight_log::write_mcap(&path, &run, &rec).expect("log written");
     let (messages, channels, bytes) = read_mcap(&path);
     let n = run.samples.len();
+    assert_schemas_are_the_checked_in_ones(&channels, &messages);
 
     // The channels, their encodings and their counts.
     let topics: BTreeSet<&str> = messages.keys().map(String::as_str).collect();
@@ -150,11 +211,12 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
     for (topic, msgs) in &messages {
         assert_eq!(msgs.len(), n, "{topic}");
         assert_eq!(stats.messages[topic], n as u64, "{topic}");
-        let (encoding, schema_encoding, schema) = &channels[topic];
+        let c = &channels[topic];
         assert_eq!(
-            (encoding.as_str(), schema_encoding.as_str()),
+            (c.message_encoding.as_str(), c.schema_encoding.as_str()),
             ("json", "jsonschema")
         );
+        let schema = &c.schema;
         assert_foxglove_readable(schema, topic);
         for (k, (seq, t, m)) in msgs.iter().enumerate() {
             assert_eq!(*seq as usize, k, "{topic}");
@@ -287,7 +349,7 @@ fn the_log_has_one_typed_message_per_step_per_channel_with_the_runs_values() {
     }
     assert!(run.samples[k].output.predicted_miss_m.is_infinite());
     assert!(run.samples[approach].output.predicted_miss_m.is_finite());
-    let schema = &channels["/controller/output"].2;
+    let schema = &channels["/controller/output"].schema;
     for field in ["attempt", "estimate", "predicted_miss_m"] {
         assert!(schema["properties"].get(field).is_some(), "{field}");
     }
@@ -462,7 +524,8 @@ fn a_pil_log_carries_the_raw_link_frames() {
     let dir = scratch("pil");
     let path = dir.join("pil.mcap");
     flight_log::write_mcap(&path, &run, &rec).expect("log written");
-    let (messages, _, _) = read_mcap(&path);
+    let (messages, channels, _) = read_mcap(&path);
+    assert_schemas_are_the_checked_in_ones(&channels, &messages);
     let n = run.samples.len();
     let topics: BTreeSet<&str> = messages.keys().map(String::as_str).collect();
     let mut expected: BTreeSet<&str> = IN_PROCESS_TOPICS.into_iter().collect();
