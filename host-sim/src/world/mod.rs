@@ -17,6 +17,7 @@ pub mod faults;
 pub mod flight;
 pub mod hose;
 pub mod led_camera;
+pub mod lens;
 pub mod nav;
 pub mod turbulence;
 pub mod wake;
