@@ -18,6 +18,12 @@
 //! - `physics/receiver_trim` and `physics/receiver_trim_dispersed`: the straight-and-level
 //!   trim of the nominal and of that dispersed receiver at the refuelling condition, the
 //!   per-run cost (a run trims the true receiver, and the nominal one when the two differ).
+//! - `physics/build_world_level2` and `physics/build_world_plant_corner`: building a run's
+//!   world, once per run (the hose's steady trail in the wake, the gust field's history, the
+//!   camera), for `level2` and for `level2` at the corner of the world's plant dispersion
+//!   (`WORLD_PLANT_DISPERSION`) with the most tension in the hose (the draggiest drogue, the
+//!   longest and heaviest hose with twice its drag, the strongest wake);
+//!   `physics/full_world_step_plant_corner` is a refuelling physics step in that world.
 //!
 //! Each iteration starts from the same state (a clone made outside the timed region), so the
 //! figures do not drift with the simulated time. Run with
@@ -27,7 +33,7 @@ use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use host_sim::receiver::{F16, FACTORS, ReceiverPlant, Wind};
-use host_sim::scenario::ScenarioFile;
+use host_sim::scenario::{ScenarioFile, WORLD_PLANT_DISPERSION};
 use host_sim::sim::build_world;
 use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS};
 use host_sim::world::World;
@@ -94,6 +100,30 @@ fn benches(c: &mut Criterion) {
         &refuelling_world,
         REFUELLING_DT_S,
     );
+    let corner = ScenarioFile::parse(
+        &format!(
+            "[turbulence]\npreset = \"level2\"\n[drogue]\ndrogue_drag_coefficient = 0.92\n\
+             hose_length_m = 15.2\nhose_linear_density_kg_per_m = 4.71\nhose_drag_scale = 2.0\n\
+             [tanker_wake]\nenabled = true\nstrength = 1.5\n{WORLD_PLANT_DISPERSION}"
+        ),
+        "plant corner",
+    )
+    .expect("plant corner")
+    .scenario();
+    let corner_world = build_world(&corner, &model, &trim, REFUELLING_DT_S).expect("world");
+    full_step(
+        "full_world_step_plant_corner",
+        &corner_world,
+        REFUELLING_DT_S,
+    );
+    for (name, s) in [
+        ("build_world_level2", &refuelling),
+        ("build_world_plant_corner", &corner),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| build_world(black_box(s), &model, &trim, REFUELLING_DT_S).expect("world"));
+        });
+    }
     group.bench_function("camera_frame", |b| {
         b.iter_batched_ref(
             || world.clone(),

@@ -33,9 +33,13 @@ use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
 use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
 use crate::world::camera::CameraParams;
 use crate::world::flight::{FlightCondition, FlightConditionError};
-use crate::world::hose::HoseParams;
+use crate::world::hose::{
+    DROGUE_DRAG_COEFFICIENT, DROGUE_MASS_KG, HOSE_LENGTH_M, HOSE_LINEAR_DENSITY_KG_PER_M,
+    HoseParams,
+};
 use crate::world::led_camera::LedCameraParams;
-use crate::world::nav::InsErrors;
+use crate::world::lens::IntrinsicsError;
+use crate::world::nav::{InsErrors, InsGrade};
 use crate::world::turbulence::TurbulencePreset;
 use crate::world::wake::WakeParams;
 
@@ -101,14 +105,67 @@ pub enum NavModel {
     Ideal,
 }
 
-/// `[navigation]`.
+/// `[navigation]`. Read through `NavigationKeys`: `ins` is the grade's figures with each
+/// figure `[navigation.ins]` gives in its place, so a file is written out whole and reads
+/// back the same.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(from = "NavigationKeys")]
 pub struct NavigationSection {
     /// Model.
     pub model: NavModel,
+    /// The INS's sensor suite, whose figures `ins` starts from (`docs/models.md`,
+    /// "Navigation"): `"tactical"` (the default) or `"industrial"`.
+    pub grade: InsGrade,
     /// The INS's error figures (`docs/models.md`, "Navigation").
     pub ins: InsErrors,
+}
+
+/// `[navigation]` as written: every key optional, `[navigation.ins]` figure by figure.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct NavigationKeys {
+    model: NavModel,
+    grade: InsGrade,
+    ins: InsKeys,
+}
+
+/// `[navigation.ins]` as written: the figures given, each replacing the grade's.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct InsKeys {
+    attitude_bias_deg: Option<f64>,
+    heading_bias_deg: Option<f64>,
+    attitude_noise_deg: Option<f64>,
+    gyro_bias_deg_per_h: Option<f64>,
+    gyro_random_walk_deg_per_rt_h: Option<f64>,
+    velocity_bias_mps: Option<f64>,
+    velocity_noise_mps: Option<f64>,
+    position_noise_m: Option<f64>,
+    latency_steps: Option<u32>,
+}
+
+impl From<NavigationKeys> for NavigationSection {
+    fn from(k: NavigationKeys) -> Self {
+        let g = k.grade.errors();
+        let i = k.ins;
+        Self {
+            model: k.model,
+            grade: k.grade,
+            ins: InsErrors {
+                attitude_bias_deg: i.attitude_bias_deg.unwrap_or(g.attitude_bias_deg),
+                heading_bias_deg: i.heading_bias_deg.unwrap_or(g.heading_bias_deg),
+                attitude_noise_deg: i.attitude_noise_deg.unwrap_or(g.attitude_noise_deg),
+                gyro_bias_deg_per_h: i.gyro_bias_deg_per_h.unwrap_or(g.gyro_bias_deg_per_h),
+                gyro_random_walk_deg_per_rt_h: i
+                    .gyro_random_walk_deg_per_rt_h
+                    .unwrap_or(g.gyro_random_walk_deg_per_rt_h),
+                velocity_bias_mps: i.velocity_bias_mps.unwrap_or(g.velocity_bias_mps),
+                velocity_noise_mps: i.velocity_noise_mps.unwrap_or(g.velocity_noise_mps),
+                position_noise_m: i.position_noise_m.unwrap_or(g.position_noise_m),
+                latency_steps: i.latency_steps.unwrap_or(g.latency_steps),
+            },
+        }
+    }
 }
 
 impl NavigationSection {
@@ -144,22 +201,60 @@ pub struct TurbulenceSection {
     /// overridden by `sigma_mps` (so a dispersed intensity wins).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub exceedance_probability: Option<f64>,
+    /// Dryden scale length, all axes, m; MIL-F-8785C's at the flight altitude when not given
+    /// ([`crate::world::turbulence::mil_f_8785c_scale_lengths_m`]: 533.4 m from 2,000 ft).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale_length_m: Option<f64>,
 }
 
-/// A section with just an on/off switch (`[bow_wave]`, `[tanker_wake]`).
+/// A section with an on/off switch and a strength (`[bow_wave]`, `[tanker_wake]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Switch {
     /// On or off.
     pub enabled: bool,
+    /// Factor on the model's effect when on (the bow wave's force, the wake's circulation in
+    /// its induced velocity), 1 by default: the model as published.
+    #[serde(default = "unit_strength")]
+    pub strength: f64,
 }
 
-/// `[drogue]`.
+/// The default of [`Switch::strength`].
+fn unit_strength() -> f64 {
+    1.0
+}
+
+/// `[drogue]`: the model, and the hose and drogue's physical parameters (used by the hose
+/// model; the fixed drogue holds its nominal trail whatever they are).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DrogueSection {
     /// Model.
     pub model: DrogueModel,
+    /// Drogue mass, kg (default 29.484, \\[R\\]).
+    pub drogue_mass_kg: f64,
+    /// Canopy drag coefficient on `pi D^2 / 4` (default 0.8, \\[R\\]).
+    pub drogue_drag_coefficient: f64,
+    /// Trailed hose length, exit to drogue centre, m (default 14.3256, \\[R\\]).
+    pub hose_length_m: f64,
+    /// Hose mass per length, kg/m (default 4.0925, \\[R\\]).
+    pub hose_linear_density_kg_per_m: f64,
+    /// Factor on the hose links' drag coefficients (default 1).
+    pub hose_drag_scale: f64,
+}
+
+impl DrogueSection {
+    /// The hose model's parameters this section states (the rest the model's defaults).
+    pub fn hose_params(&self) -> HoseParams {
+        HoseParams {
+            drogue_mass_kg: self.drogue_mass_kg,
+            drogue_drag_coefficient: self.drogue_drag_coefficient,
+            hose_length_m: self.hose_length_m,
+            hose_linear_density_kg_per_m: self.hose_linear_density_kg_per_m,
+            hose_drag_scale: self.hose_drag_scale,
+            ..HoseParams::default()
+        }
+    }
 }
 
 /// `[camera]`.
@@ -176,6 +271,22 @@ pub struct CameraSection {
     /// Error of the camera's boresight pitch, true minus assumed, degrees: the controller
     /// assumes the boresight is level at trim; positive points it further down.
     pub mount_pitch_error_deg: f64,
+    /// Error of the camera's roll about its boresight, true minus assumed (none), degrees:
+    /// positive turns the image's right side down.
+    pub mount_roll_error_deg: f64,
+    /// Error of the boresight's yaw, true minus assumed (none), degrees: positive points it
+    /// right.
+    pub mount_yaw_error_deg: f64,
+    /// True minus calibrated focal length, px (the controller's image coordinates use the
+    /// calibrated 500 px).
+    pub focal_error_px: f64,
+    /// True minus calibrated principal point, `[u (right), v (down)]`, px.
+    pub principal_point_error_px: [f64; 2],
+    /// Radial distortion the calibration leaves uncorrected, `k1` of
+    /// `x_d = x (1 + k1 r^2 + k2 r^4)` (normalised coordinates).
+    pub radial_distortion_k1: f64,
+    /// Radial distortion the calibration leaves uncorrected, `k2`.
+    pub radial_distortion_k2: f64,
     /// Pixel noise on each LED centroid (1 sigma), px.
     pub pixel_noise_px: f64,
     /// Frames between capture and delivery.
@@ -184,6 +295,17 @@ pub struct CameraSection {
     pub rate_hz: f64,
     /// Probability that a frame is lost.
     pub drop_probability: f64,
+}
+
+impl CameraSection {
+    /// The true lens minus the calibration this section states.
+    pub fn intrinsics_error(&self) -> IntrinsicsError {
+        IntrinsicsError {
+            focal_px: self.focal_error_px,
+            principal_px: self.principal_point_error_px,
+            radial_k: [self.radial_distortion_k1, self.radial_distortion_k2],
+        }
+    }
 }
 
 /// `[receiver]`: the true receiver, which the controller's design does not know.
@@ -265,7 +387,118 @@ pub struct DispersionSection {
     /// `[receiver]`'s (`mass_scale = [0.85, 1.25]`, ...).
     #[serde(skip_serializing_if = "ReceiverPlantRanges::is_empty")]
     pub receiver: ReceiverPlantRanges,
+    /// `[dispersion.drogue]`: the hose and drogue's parameters.
+    #[serde(skip_serializing_if = "DrogueDispersion::is_empty")]
+    pub drogue: DrogueDispersion,
+    /// `[dispersion.turbulence]`: the Dryden scale length.
+    #[serde(skip_serializing_if = "TurbulenceDispersion::is_empty")]
+    pub turbulence: TurbulenceDispersion,
+    /// `[dispersion.tanker_wake]`: the wake's strength.
+    #[serde(skip_serializing_if = "StrengthDispersion::is_empty")]
+    pub tanker_wake: StrengthDispersion,
+    /// `[dispersion.bow_wave]`: the bow wave's strength.
+    #[serde(skip_serializing_if = "StrengthDispersion::is_empty")]
+    pub bow_wave: StrengthDispersion,
+    /// `[dispersion.camera]`: the mount's roll and yaw and the lens against its calibration.
+    #[serde(skip_serializing_if = "CameraDispersion::is_empty")]
+    pub camera: CameraDispersion,
+    /// `[dispersion.navigation]`: the INS's grade.
+    #[serde(skip_serializing_if = "NavigationDispersion::is_empty")]
+    pub navigation: NavigationDispersion,
 }
+
+/// `[dispersion.drogue]`: ranges `[min, max]` of `[drogue]`'s keys.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DrogueDispersion {
+    /// Drogue mass, kg.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drogue_mass_kg: Option<[f64; 2]>,
+    /// Canopy drag coefficient.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drogue_drag_coefficient: Option<[f64; 2]>,
+    /// Hose length, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hose_length_m: Option<[f64; 2]>,
+    /// Hose mass per length, kg/m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hose_linear_density_kg_per_m: Option<[f64; 2]>,
+    /// Factor on the hose's drag coefficients.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hose_drag_scale: Option<[f64; 2]>,
+}
+
+/// `[dispersion.turbulence]`: ranges of `[turbulence]`'s physical keys (its intensity is the
+/// flat `turbulence_sigma_mps`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TurbulenceDispersion {
+    /// Dryden scale length, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale_length_m: Option<[f64; 2]>,
+}
+
+/// `[dispersion.tanker_wake]`, `[dispersion.bow_wave]`: the range of the section's strength.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StrengthDispersion {
+    /// Factor on the model's effect.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub strength: Option<[f64; 2]>,
+}
+
+/// `[dispersion.camera]`: ranges of `[camera]`'s mount and lens keys (its position and pitch
+/// errors, noise and latency are the flat `[dispersion]` keys).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraDispersion {
+    /// Roll error, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mount_roll_error_deg: Option<[f64; 2]>,
+    /// Yaw error, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mount_yaw_error_deg: Option<[f64; 2]>,
+    /// Focal-length error, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub focal_error_px: Option<[f64; 2]>,
+    /// Principal-point error, per axis (u, v), px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub principal_point_error_px: Option<[[f64; 2]; 2]>,
+    /// Residual radial distortion `k1`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radial_distortion_k1: Option<[f64; 2]>,
+    /// Residual radial distortion `k2`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radial_distortion_k2: Option<[f64; 2]>,
+}
+
+/// `[dispersion.navigation]`: the INS's grade, drawn per run from a list (each equally
+/// likely); the run flies that grade's figures.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NavigationDispersion {
+    /// The grades to draw from, for example `["tactical", "industrial"]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grade: Option<Vec<InsGrade>>,
+}
+
+macro_rules! empty_when_default {
+    ($($t:ty),*) => {$(
+        impl $t {
+            /// True when nothing is dispersed.
+            pub fn is_empty(&self) -> bool {
+                *self == Self::default()
+            }
+        }
+    )*};
+}
+empty_when_default!(
+    DrogueDispersion,
+    TurbulenceDispersion,
+    StrengthDispersion,
+    CameraDispersion,
+    NavigationDispersion
+);
 
 impl DispersionSection {
     /// True when nothing is dispersed and the seed is the default (per run).
@@ -335,17 +568,35 @@ impl Default for ScenarioFile {
                 preset: TurbulencePreset::None,
                 sigma_mps: None,
                 exceedance_probability: None,
+                scale_length_m: None,
             },
-            bow_wave: Switch { enabled: false },
-            tanker_wake: Switch { enabled: true },
+            bow_wave: Switch {
+                enabled: false,
+                strength: 1.0,
+            },
+            tanker_wake: Switch {
+                enabled: true,
+                strength: 1.0,
+            },
             drogue: DrogueSection {
                 model: DrogueModel::Hose,
+                drogue_mass_kg: DROGUE_MASS_KG,
+                drogue_drag_coefficient: DROGUE_DRAG_COEFFICIENT,
+                hose_length_m: HOSE_LENGTH_M,
+                hose_linear_density_kg_per_m: HOSE_LINEAR_DENSITY_KG_PER_M,
+                hose_drag_scale: 1.0,
             },
             camera: CameraSection {
                 model: CameraModel::Led,
                 placement: CameraPlacement::SetBack,
                 mount_error_m: [0.0; 3],
                 mount_pitch_error_deg: 0.0,
+                mount_roll_error_deg: 0.0,
+                mount_yaw_error_deg: 0.0,
+                focal_error_px: 0.0,
+                principal_point_error_px: [0.0; 2],
+                radial_distortion_k1: 0.0,
+                radial_distortion_k2: 0.0,
                 pixel_noise_px: 0.5,
                 latency_frames: 1,
                 rate_hz: 50.0,
@@ -361,7 +612,8 @@ impl Default for ScenarioFile {
             },
             navigation: NavigationSection {
                 model: NavModel::Ins,
-                ins: InsErrors::default(),
+                grade: InsGrade::Tactical,
+                ins: InsGrade::Tactical.errors(),
             },
             dispersion: DispersionSection::default(),
         }
@@ -452,9 +704,9 @@ pub enum ScenarioError {
     /// condition's limits).
     #[error("the receiver model: {0}")]
     Model(#[from] crate::receiver::ModelError),
-    /// The navigation's error figures (the key named).
-    #[error("{0} must be finite and not negative (latency at most 50 steps)")]
-    Navigation(&'static str),
+    /// An INS error figure outside its range (the key, the value and the range named).
+    #[error(transparent)]
+    Navigation(#[from] crate::world::nav::InsRangeError),
     /// Neither a preset name nor a readable file.
     #[error("no preset or file named {0:?} (presets: {presets})", presets = PRESETS.iter().map(|p| p.0).collect::<Vec<_>>().join(", "))]
     NotFound(String),
@@ -541,6 +793,157 @@ fn range_pair(
 /// condition over all of it; 0.35 is the design cg).
 pub const XCG_RANGE: (f64, f64) = (0.25, 0.45);
 
+/// A plant key's allowed range (the world's dispersions: hose and drogue, air, camera): its
+/// key, its `[dispersion.<section>]` key, the bounds (inclusive) and the range as an error
+/// states it. Each end of a dispersion range is held to the same bounds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantBound {
+    /// Dotted key, `<section>.<key>` (also the name of its dispersion stream, `salt_of`).
+    pub key: &'static str,
+    /// Dotted key of its dispersion range, `dispersion.<section>.<key>`.
+    pub dispersion_key: &'static str,
+    /// Smallest allowed value.
+    pub min: f64,
+    /// Largest allowed value.
+    pub max: f64,
+    /// The range (and why), as the error states it.
+    pub allowed: &'static str,
+}
+
+impl PlantBound {
+    /// Checks a value of the key.
+    fn check(&self, v: f64) -> Result<(), ScenarioError> {
+        range(self.key, v, self.min, self.max, self.allowed)
+    }
+
+    /// Checks a dispersion range of the key.
+    fn check_range(&self, r: [f64; 2]) -> Result<(), ScenarioError> {
+        range_pair(self.dispersion_key, r, self.min, self.max, self.allowed)
+    }
+}
+
+/// A [`PlantBound`] of `<section>.<key>`.
+macro_rules! plant_bound {
+    ($section:literal, $key:literal, $min:expr, $max:expr, $allowed:literal) => {
+        PlantBound {
+            key: concat!($section, ".", $key),
+            dispersion_key: concat!("dispersion.", $section, ".", $key),
+            min: $min,
+            max: $max,
+            allowed: $allowed,
+        }
+    };
+}
+
+/// The plant keys' ranges (ours: physical limits of the models, wider than any dispersion;
+/// `docs/scenarios.md`, "Keys"; the refuelling presets' dispersions are in `docs/models.md`).
+pub mod plant_bounds {
+    use super::PlantBound;
+
+    /// `drogue.drogue_mass_kg`.
+    pub const DROGUE_MASS: PlantBound =
+        plant_bound!("drogue", "drogue_mass_kg", 5.0, 100.0, "5..=100 kg");
+    /// `drogue.drogue_drag_coefficient`.
+    pub const DROGUE_DRAG: PlantBound = plant_bound!(
+        "drogue",
+        "drogue_drag_coefficient",
+        0.2,
+        2.0,
+        "0.2..=2 (on the canopy's frontal area)"
+    );
+    /// `drogue.hose_length_m`.
+    pub const HOSE_LENGTH: PlantBound =
+        plant_bound!("drogue", "hose_length_m", 5.0, 30.0, "5..=30 m");
+    /// `drogue.hose_linear_density_kg_per_m`.
+    pub const HOSE_DENSITY: PlantBound = plant_bound!(
+        "drogue",
+        "hose_linear_density_kg_per_m",
+        0.5,
+        10.0,
+        "0.5..=10 kg/m"
+    );
+    /// `drogue.hose_drag_scale`.
+    pub const HOSE_DRAG: PlantBound = plant_bound!("drogue", "hose_drag_scale", 0.0, 5.0, "0..=5");
+    /// `turbulence.scale_length_m`.
+    pub const SCALE_LENGTH: PlantBound = plant_bound!(
+        "turbulence",
+        "scale_length_m",
+        50.0,
+        2000.0,
+        "50..=2000 m (MIL-F-8785C's lengths are 533.4 m from 2,000 ft, 762 m in its von Karman form)"
+    );
+    /// `tanker_wake.strength`.
+    pub const WAKE_STRENGTH: PlantBound =
+        plant_bound!("tanker_wake", "strength", 0.0, 3.0, "0..=3");
+    /// `bow_wave.strength`.
+    pub const BOW_WAVE_STRENGTH: PlantBound =
+        plant_bound!("bow_wave", "strength", 0.0, 3.0, "0..=3");
+    /// `camera.mount_roll_error_deg`.
+    pub const ROLL: PlantBound =
+        plant_bound!("camera", "mount_roll_error_deg", -10.0, 10.0, "-10..=10");
+    /// `camera.mount_yaw_error_deg`.
+    pub const YAW: PlantBound =
+        plant_bound!("camera", "mount_yaw_error_deg", -10.0, 10.0, "-10..=10");
+    /// `camera.focal_error_px`.
+    pub const FOCAL: PlantBound = plant_bound!(
+        "camera",
+        "focal_error_px",
+        -100.0,
+        100.0,
+        "-100..=100 px (20 % of the 500 px focal length)"
+    );
+    /// `camera.principal_point_error_px[0]`.
+    pub const PRINCIPAL_U: PlantBound = plant_bound!(
+        "camera",
+        "principal_point_error_px[0]",
+        -100.0,
+        100.0,
+        "-100..=100 px"
+    );
+    /// `camera.principal_point_error_px[1]`.
+    pub const PRINCIPAL_V: PlantBound = plant_bound!(
+        "camera",
+        "principal_point_error_px[1]",
+        -100.0,
+        100.0,
+        "-100..=100 px"
+    );
+    /// `camera.radial_distortion_k1`.
+    pub const K1: PlantBound =
+        plant_bound!("camera", "radial_distortion_k1", -0.5, 0.5, "-0.5..=0.5");
+    /// `camera.radial_distortion_k2`.
+    pub const K2: PlantBound =
+        plant_bound!("camera", "radial_distortion_k2", -0.5, 0.5, "-0.5..=0.5");
+}
+
+/// Every plant key with a `[min, max]` dispersion: its bound, its value in file `$f` (borrowed
+/// `&` or `&mut`) and its range in dispersion section `$d`, in one order for validation and
+/// draws. (`turbulence.scale_length_m`, optional in its section, is handled beside it.)
+macro_rules! plant_keys {
+    (@list [$($b:tt)*] $f:ident $d:ident) => {{
+        use plant_bounds::*;
+        let [principal_u, principal_v] = $($b)* $f.camera.principal_point_error_px;
+        [
+            (&DROGUE_MASS, $($b)* $f.drogue.drogue_mass_kg, $d.drogue.drogue_mass_kg),
+            (&DROGUE_DRAG, $($b)* $f.drogue.drogue_drag_coefficient, $d.drogue.drogue_drag_coefficient),
+            (&HOSE_LENGTH, $($b)* $f.drogue.hose_length_m, $d.drogue.hose_length_m),
+            (&HOSE_DENSITY, $($b)* $f.drogue.hose_linear_density_kg_per_m, $d.drogue.hose_linear_density_kg_per_m),
+            (&HOSE_DRAG, $($b)* $f.drogue.hose_drag_scale, $d.drogue.hose_drag_scale),
+            (&WAKE_STRENGTH, $($b)* $f.tanker_wake.strength, $d.tanker_wake.strength),
+            (&BOW_WAVE_STRENGTH, $($b)* $f.bow_wave.strength, $d.bow_wave.strength),
+            (&ROLL, $($b)* $f.camera.mount_roll_error_deg, $d.camera.mount_roll_error_deg),
+            (&YAW, $($b)* $f.camera.mount_yaw_error_deg, $d.camera.mount_yaw_error_deg),
+            (&FOCAL, $($b)* $f.camera.focal_error_px, $d.camera.focal_error_px),
+            (&PRINCIPAL_U, principal_u, $d.camera.principal_point_error_px.map(|r| r[0])),
+            (&PRINCIPAL_V, principal_v, $d.camera.principal_point_error_px.map(|r| r[1])),
+            (&K1, $($b)* $f.camera.radial_distortion_k1, $d.camera.radial_distortion_k1),
+            (&K2, $($b)* $f.camera.radial_distortion_k2, $d.camera.radial_distortion_k2),
+        ]
+    }};
+    (mut $f:ident, $d:ident) => { plant_keys!(@list [&mut] $f $d) };
+    ($f:ident, $d:ident) => { plant_keys!(@list [] $f $d) };
+}
+
 /// The dispersion of the paper presets with turbulence (`paper-level1`, `paper-level2`,
 /// `paper-bow-wave`), without the turbulence intensity, which is +/-20 % around each preset's
 /// (see `docs/scenarios.md`, "Dispersion").
@@ -578,6 +981,44 @@ macro_rules! refuelling_dispersion {
         concat!(paper_dispersion!($sigma), "nav_latency_steps = [1, 2]\n")
     };
 }
+
+/// The world's plant dispersion for the refuelling presets: the hose and drogue, the air (the
+/// Dryden scale length, the wake's and the bow wave's strengths), the camera (mount roll and
+/// yaw, the lens against its calibration) and the INS's grade, each range from a public
+/// source or marked ours in `docs/models.md` (each model's "Dispersion" subsection). To be
+/// appended after a preset's `[dispersion]` keys (it opens its own sub-tables). Not in the
+/// presets yet: [`WORLD_PLANT_DISPERSION`] is the same text.
+macro_rules! world_plant_dispersion {
+    () => {
+        concat!(
+            "[dispersion.drogue]\n",
+            "drogue_mass_kg = [23.6, 35.4]\n",
+            "drogue_drag_coefficient = [0.68, 0.92]\n",
+            "hose_length_m = [13.45, 15.2]\n",
+            "hose_linear_density_kg_per_m = [3.48, 4.71]\n",
+            "hose_drag_scale = [0.5, 2.0]\n",
+            "[dispersion.turbulence]\n",
+            "scale_length_m = [533.4, 762.0]\n",
+            "[dispersion.tanker_wake]\n",
+            "strength = [0.75, 1.5]\n",
+            "[dispersion.bow_wave]\n",
+            "strength = [0.7, 1.3]\n",
+            "[dispersion.camera]\n",
+            "mount_roll_error_deg = [-0.5, 0.5]\n",
+            "mount_yaw_error_deg = [-0.5, 0.5]\n",
+            "focal_error_px = [-5.0, 5.0]\n",
+            "principal_point_error_px = [[-5.0, 5.0], [-5.0, 5.0]]\n",
+            "radial_distortion_k1 = [-0.01, 0.01]\n",
+            "radial_distortion_k2 = [-0.02, 0.02]\n",
+            "[dispersion.navigation]\n",
+            "grade = [\"tactical\", \"industrial\"]\n",
+        )
+    };
+}
+
+/// The world's plant dispersion (`world_plant_dispersion!`'s text), TOML sub-tables of
+/// `[dispersion]` to append to a scenario file.
+pub const WORLD_PLANT_DISPERSION: &str = world_plant_dispersion!();
 
 /// The flight condition's dispersion of `envelope`: the whole docking envelope the controller
 /// accepts (its gain schedule's grid, [`ibvs_core::gains::SCHEDULE_SPEEDS_MPS`] and
@@ -871,10 +1312,14 @@ impl ScenarioFile {
             range(info.receiver_key, factor, l.min, l.max, l.text)?;
         }
         self.validate_flight()?;
-        self.navigation
-            .ins
-            .validate()
-            .map_err(ScenarioError::Navigation)?;
+        self.navigation.ins.check()?;
+        let d = &self.dispersion;
+        for (bound, value, _) in plant_keys!(self, d) {
+            bound.check(value)?;
+        }
+        if let Some(l) = self.turbulence.scale_length_m {
+            plant_bounds::SCALE_LENGTH.check(l)?;
+        }
         if self.controller.camera_position_given
             && (self.camera.mount_error_m != [0.0; 3] || self.dispersion.mount_error_m.is_some())
         {
@@ -1023,6 +1468,34 @@ impl ScenarioFile {
                 range_pair(info.dispersion_key, r, l.min, l.max, l.text)?;
             }
         }
+        for (bound, _, r) in plant_keys!(self, d) {
+            if let Some(r) = r {
+                bound.check_range(r)?;
+            }
+        }
+        if let Some(r) = d.turbulence.scale_length_m {
+            plant_bounds::SCALE_LENGTH.check_range(r)?;
+        }
+        if let Some(grades) = &d.navigation.grade {
+            if grades.is_empty() {
+                return Err(ScenarioError::OutOfRange {
+                    key: "dispersion.navigation.grade",
+                    value: "[]".into(),
+                    allowed: "a non-empty list of \"tactical\", \"industrial\"",
+                });
+            }
+            let file = self.navigation.ins;
+            let grade = InsErrors {
+                latency_steps: file.latency_steps,
+                ..self.navigation.grade.errors()
+            };
+            if file != grade {
+                return Err(ScenarioError::Conflict(
+                    "navigation.ins figures and dispersion.navigation.grade both give the INS's \
+                     errors (a run flies its drawn grade's figures): give one",
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -1094,6 +1567,25 @@ impl ScenarioFile {
                 *factor = uniform(salt_of(info.receiver_key), r);
             }
         }
+        // The plant's keys: each from the stream named by its key.
+        for (bound, value, r) in plant_keys!(mut f, d) {
+            if let Some(r) = r {
+                *value = uniform(salt_of(bound.key), r);
+            }
+        }
+        if let Some(r) = d.turbulence.scale_length_m {
+            f.turbulence.scale_length_m = Some(uniform(salt_of(plant_bounds::SCALE_LENGTH.key), r));
+        }
+        if let Some(grades) = d.navigation.grade.as_deref().filter(|g| !g.is_empty()) {
+            let grade = grades[stream(salt_of("navigation.grade")).random_range(0..grades.len())];
+            // The grade's figures, at the file's latency (dispersed on its own, above).
+            let latency_steps = f.navigation.ins.latency_steps;
+            f.navigation.grade = grade;
+            f.navigation.ins = InsErrors {
+                latency_steps,
+                ..grade.errors()
+            };
+        }
         f
     }
 
@@ -1147,21 +1639,32 @@ impl ScenarioFile {
             start_offset_m: nalgebra::Vector3::from(f.initial.drogue_minus_probe_m),
             duration_s: f.duration_s,
             plant_substeps: f.plant_substeps,
-            hose: (f.drogue.model == DrogueModel::Hose).then(HoseParams::default),
+            hose: (f.drogue.model == DrogueModel::Hose).then(|| f.drogue.hose_params()),
             camera: match c.model {
-                CameraModel::Ideal => CameraChoice::Ideal(CameraParams::default()),
+                CameraModel::Ideal => CameraChoice::Ideal(CameraParams {
+                    intrinsics_error: c.intrinsics_error(),
+                    ..CameraParams::default()
+                }),
                 CameraModel::Led => CameraChoice::Led(LedCameraParams {
                     pixel_noise_px: c.pixel_noise_px,
                     latency_frames: c.latency_frames,
                     rate_hz: c.rate_hz,
                     drop_probability: c.drop_probability,
+                    intrinsics_error: c.intrinsics_error(),
                     ..LedCameraParams::default()
                 }),
             },
             turbulence_sigma_mps: f.sigma_mps(),
+            turbulence_scale_length_m: f.turbulence.scale_length_m,
             camera_pitch_error_rad: c.mount_pitch_error_deg.to_radians(),
-            wake: f.tanker_wake.enabled.then(WakeParams::default),
+            camera_roll_error_rad: c.mount_roll_error_deg.to_radians(),
+            camera_yaw_error_rad: c.mount_yaw_error_deg.to_radians(),
+            wake: f.tanker_wake.enabled.then(|| WakeParams {
+                strength_scale: f.tanker_wake.strength,
+                ..WakeParams::default()
+            }),
             bow_wave: f.bow_wave.enabled,
+            bow_wave_strength: f.bow_wave.strength,
             xcg: f.receiver.xcg,
             receiver_plant: f.receiver.plant,
             camera_body_m: c.placement.position_body_m(),
@@ -1834,5 +2337,351 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Every plant key (value and dispersion) with its bound, for the range tests.
+    fn plant_bound_list() -> Vec<PlantBound> {
+        let f = ScenarioFile::default();
+        let d = &f.dispersion;
+        let mut all: Vec<PlantBound> = plant_keys!(f, d).iter().map(|(b, _, _)| **b).collect();
+        all.push(plant_bounds::SCALE_LENGTH);
+        all
+    }
+
+    /// The TOML of key `bound.key` (or its dispersion, `range`) set to `text`.
+    fn plant_toml(bound: &PlantBound, text: &str, range: bool) -> String {
+        let (section, key) = bound.key.split_once('.').unwrap();
+        let (name, index) = match key.split_once('[') {
+            Some((name, i)) => (name, i.trim_end_matches(']').parse::<usize>().ok()),
+            None => (key, None),
+        };
+        let value = match index {
+            // The other axis at a valid value.
+            Some(0) => format!("[{text}, {}]", if range { "[0.0, 0.0]" } else { "0.0" }),
+            Some(_) => format!("[{}, {text}]", if range { "[0.0, 0.0]" } else { "0.0" }),
+            None => text.to_string(),
+        };
+        let switch = match section {
+            "tanker_wake" | "bow_wave" if !range => "enabled = true\n",
+            _ => "",
+        };
+        if range {
+            format!("[dispersion.{section}]\n{name} = {value}\n")
+        } else {
+            format!("[{section}]\n{switch}{name} = {value}\n")
+        }
+    }
+
+    #[test]
+    fn every_plant_key_is_accepted_at_its_limits_and_named_with_its_range_beyond() {
+        for b in plant_bound_list() {
+            let step = 1e-6 * (b.max - b.min);
+            for v in [b.min, b.max] {
+                let f = ScenarioFile::parse(&plant_toml(&b, &v.to_string(), false), "limit")
+                    .unwrap_or_else(|e| panic!("{} = {v}: {e}", b.key));
+                f.scenario();
+                ScenarioFile::parse(&plant_toml(&b, &format!("[{v}, {v}]"), true), "limit")
+                    .unwrap_or_else(|e| panic!("{} = [{v}, {v}]: {e}", b.dispersion_key));
+            }
+            for v in [b.min - step, b.max + step] {
+                let e = ScenarioFile::parse(&plant_toml(&b, &v.to_string(), false), "bad")
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains(b.key) && e.contains(b.allowed), "{e}");
+                let e =
+                    ScenarioFile::parse(&plant_toml(&b, &format!("[{v}, {}]", b.max), true), "bad")
+                        .unwrap_err()
+                        .to_string();
+                assert!(e.contains(b.dispersion_key) && e.contains(b.allowed), "{e}");
+            }
+            let e = ScenarioFile::parse(
+                &plant_toml(&b, &format!("[{}, {}]", b.max, b.min), true),
+                "bad",
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(
+                e.contains(b.dispersion_key) && e.contains("minimum exceeds"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_ins_figure_is_accepted_at_its_limit_and_named_with_its_range_beyond() {
+        use crate::world::nav::INS_LIMITS;
+        for limit in INS_LIMITS {
+            let name = limit.key.rsplit('.').next().unwrap();
+            let integer = name == "latency_steps";
+            let text = |v: f64| {
+                if integer {
+                    format!("{}", v as i64)
+                } else {
+                    format!("{v:?}")
+                }
+            };
+            // The controller's compensated latency stated apart: its own limit is not the INS's.
+            let file = |v: f64| {
+                format!(
+                    "[controller]\nnav_latency_steps = 1\n[navigation.ins]\n{name} = {}\n",
+                    text(v)
+                )
+            };
+            for v in [limit.min, limit.max] {
+                ScenarioFile::parse(&file(v), "limit")
+                    .unwrap_or_else(|e| panic!("{} = {v}: {e}", limit.key));
+            }
+            let beyond = if integer {
+                limit.max + 1.0
+            } else {
+                limit.max * (1.0 + 1e-9)
+            };
+            let e = ScenarioFile::parse(&file(beyond), "bad")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(limit.key) && e.contains(limit.allowed), "{e}");
+            if !integer {
+                let e = ScenarioFile::parse(&file(-1e-9), "bad")
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains(limit.key) && e.contains(limit.allowed), "{e}");
+            }
+        }
+        // The figure that used to fly.
+        let e = ScenarioFile::parse("[navigation.ins]\ngyro_bias_deg_per_h = 1e30\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("navigation.ins.gyro_bias_deg_per_h") && e.contains("0..=3600"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_plant_keys_reach_the_world_and_nominal_is_todays_world() {
+        let nominal = ScenarioFile::default().scenario();
+        assert_eq!(nominal.hose, Some(HoseParams::default()));
+        assert_eq!(nominal.wake, Some(WakeParams::default()));
+        assert_eq!(
+            (nominal.bow_wave_strength, nominal.turbulence_scale_length_m),
+            (1.0, None)
+        );
+        assert_eq!(
+            (nominal.camera_roll_error_rad, nominal.camera_yaw_error_rad),
+            (0.0, 0.0)
+        );
+        assert!(matches!(nominal.camera, CameraChoice::Led(p) if p == LedCameraParams::default()));
+        assert_eq!(nominal.navigation, Some(InsErrors::default()));
+        let f = ScenarioFile::parse(
+            "[drogue]\ndrogue_mass_kg = 31.0\ndrogue_drag_coefficient = 0.7\nhose_length_m = 15.0\n\
+             hose_linear_density_kg_per_m = 3.9\nhose_drag_scale = 1.5\n\
+             [turbulence]\nscale_length_m = 700.0\n\
+             [tanker_wake]\nenabled = true\nstrength = 1.2\n\
+             [bow_wave]\nenabled = true\nstrength = 0.8\n\
+             [camera]\nmount_roll_error_deg = 0.3\nmount_yaw_error_deg = -0.2\n\
+             focal_error_px = 4.0\nprincipal_point_error_px = [2.0, -3.0]\n\
+             radial_distortion_k1 = -0.01\nradial_distortion_k2 = 0.02\n\
+             [navigation]\ngrade = \"industrial\"\n",
+            "plant",
+        )
+        .unwrap();
+        let s = f.scenario();
+        let h = s.hose.unwrap();
+        assert_eq!(
+            [
+                h.drogue_mass_kg,
+                h.drogue_drag_coefficient,
+                h.hose_length_m,
+                h.hose_linear_density_kg_per_m,
+                h.hose_drag_scale
+            ],
+            [31.0, 0.7, 15.0, 3.9, 1.5]
+        );
+        assert_eq!(s.turbulence_scale_length_m, Some(700.0));
+        assert_eq!(s.wake.unwrap().strength_scale, 1.2);
+        assert_eq!(s.bow_wave_strength, 0.8);
+        assert!((s.camera_roll_error_rad - 0.3f64.to_radians()).abs() < 1e-15);
+        assert!((s.camera_yaw_error_rad + 0.2f64.to_radians()).abs() < 1e-15);
+        let CameraChoice::Led(p) = s.camera else {
+            panic!("{:?}", s.camera)
+        };
+        assert_eq!(
+            p.intrinsics_error,
+            IntrinsicsError {
+                focal_px: 4.0,
+                principal_px: [2.0, -3.0],
+                radial_k: [-0.01, 0.02]
+            }
+        );
+        assert_eq!(s.navigation, Some(InsGrade::Industrial.errors()));
+        // The controller does not know any of it.
+        assert_eq!(f.controller_config(), ControllerConfig::default());
+        // Written out and read back, the same file.
+        assert_eq!(ScenarioFile::parse(&f.to_toml(), "back").unwrap(), f);
+    }
+
+    #[test]
+    fn a_bare_switch_section_is_still_a_file_and_its_strength_defaults_to_one() {
+        let f = ScenarioFile::parse(
+            "[bow_wave]\nenabled = true\n[tanker_wake]\nenabled = false\n",
+            "old",
+        )
+        .unwrap();
+        assert_eq!((f.bow_wave.strength, f.tanker_wake.strength), (1.0, 1.0));
+        assert!(f.bow_wave.enabled && !f.tanker_wake.enabled);
+    }
+
+    #[test]
+    fn an_ins_figure_given_replaces_its_grades_and_the_rest_are_the_grades() {
+        let f = ScenarioFile::parse(
+            "[navigation]\ngrade = \"industrial\"\n[navigation.ins]\ngyro_bias_deg_per_h = 3.0\n",
+            "mixed",
+        )
+        .unwrap();
+        assert_eq!(
+            f.navigation.ins,
+            InsErrors {
+                gyro_bias_deg_per_h: 3.0,
+                ..InsGrade::Industrial.errors()
+            }
+        );
+        assert_eq!(ScenarioFile::parse(&f.to_toml(), "back").unwrap(), f);
+        let e = ScenarioFile::parse("[navigation]\ngrade = \"consumer\"\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("consumer"), "{e}");
+        let e = ScenarioFile::parse("[navigation.ins]\ngyro_bias = 1.0\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("gyro_bias"), "{e}");
+    }
+
+    /// The world's plant dispersion: on `level2` and `mil-level2` every run is valid, in
+    /// range, a function of its index, and the draws of one key do not depend on the others.
+    #[test]
+    fn the_plant_dispersion_draws_are_deterministic_in_range_and_independent() {
+        for name in ["level2", "mil-level2"] {
+            let text = format!(
+                "{}{WORLD_PLANT_DISPERSION}",
+                PRESETS.iter().find(|p| p.0 == name).unwrap().2
+            );
+            let base = ScenarioFile::parse(&text, name).unwrap();
+            let d = base.dispersion.clone();
+            let mut grades = std::collections::BTreeSet::new();
+            let mut lows = [false; 14];
+            let mut highs = [false; 14];
+            // Each run's draws, as fractions of their ranges, for the correlations.
+            let mut fractions: Vec<[f64; 14]> = Vec::new();
+            for i in 0..400 {
+                let f = base.dispersed(i);
+                assert_eq!(f, base.dispersed(i), "{name} run {i}");
+                f.validate().unwrap();
+                let mut fraction = [0.0; 14];
+                for (k, (b, v, _)) in plant_keys!(f, d).into_iter().enumerate() {
+                    let r = plant_keys!(base, d)[k].2.unwrap();
+                    assert!(r[0] <= v && v <= r[1], "{} = {v} outside {r:?}", b.key);
+                    lows[k] |= v < r[0] + 0.1 * (r[1] - r[0]);
+                    highs[k] |= v > r[1] - 0.1 * (r[1] - r[0]);
+                    fraction[k] = (v - r[0]) / (r[1] - r[0]);
+                }
+                fractions.push(fraction);
+                let l = f.turbulence.scale_length_m.unwrap();
+                assert!((533.4..=762.0).contains(&l), "{l}");
+                grades.insert(format!("{:?}", f.navigation.grade));
+                assert_eq!(
+                    f.navigation.ins,
+                    InsErrors {
+                        latency_steps: f.navigation.ins.latency_steps,
+                        ..f.navigation.grade.errors()
+                    }
+                );
+                assert!([1, 2].contains(&f.navigation.ins.latency_steps));
+            }
+            assert!(lows.iter().chain(&highs).all(|x| *x), "{lows:?} {highs:?}");
+            // Independent streams: no two keys' draws correlate (|r| < 0.2 over 400 runs,
+            // about four standard errors).
+            let n = fractions.len() as f64;
+            for a in 0..14 {
+                for b in a + 1..14 {
+                    let (ma, mb) = (
+                        fractions.iter().map(|x| x[a]).sum::<f64>() / n,
+                        fractions.iter().map(|x| x[b]).sum::<f64>() / n,
+                    );
+                    let cov = |i: usize, j: usize, mi: f64, mj: f64| {
+                        fractions
+                            .iter()
+                            .map(|x| (x[i] - mi) * (x[j] - mj))
+                            .sum::<f64>()
+                            / n
+                    };
+                    let r = cov(a, b, ma, mb) / (cov(a, a, ma, ma) * cov(b, b, mb, mb)).sqrt();
+                    assert!(r.abs() < 0.2, "keys {a} and {b} correlate: {r}");
+                }
+            }
+            assert_eq!(grades.len(), 2, "both grades flown");
+            // Removing plant keys changes neither the others' draws nor the old keys'.
+            let mut fewer = base.clone();
+            fewer.dispersion.drogue.hose_length_m = None;
+            fewer.dispersion.camera = CameraDispersion {
+                focal_error_px: d.camera.focal_error_px,
+                ..CameraDispersion::default()
+            };
+            fewer.dispersion.navigation = NavigationDispersion::default();
+            let mut none = base.clone();
+            none.dispersion = ScenarioFile::load(name).unwrap().dispersion;
+            for i in [0, 7, 1000] {
+                let (a, b, c) = (base.dispersed(i), fewer.dispersed(i), none.dispersed(i));
+                assert_eq!(a.drogue.drogue_mass_kg, b.drogue.drogue_mass_kg);
+                assert_eq!(b.drogue.hose_length_m, HOSE_LENGTH_M);
+                assert_eq!(a.camera.focal_error_px, b.camera.focal_error_px);
+                assert_eq!(b.camera.mount_roll_error_deg, 0.0);
+                assert_eq!(a.tanker_wake, b.tanker_wake);
+                assert_eq!(b.navigation.grade, base.navigation.grade);
+                assert_eq!(
+                    b.navigation.ins,
+                    InsErrors {
+                        latency_steps: b.navigation.ins.latency_steps,
+                        ..base.navigation.ins
+                    }
+                );
+                // The older keys draw as they did without the plant dispersion.
+                assert_eq!(
+                    (a.seed, a.initial.clone(), a.sigma_mps(), a.receiver.clone()),
+                    (c.seed, c.initial.clone(), c.sigma_mps(), c.receiver.clone())
+                );
+                assert_eq!(a.camera.mount_error_m, c.camera.mount_error_m);
+                assert_eq!(
+                    a.navigation.ins.latency_steps,
+                    c.navigation.ins.latency_steps
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_grade_dispersion_is_named_when_empty_or_against_given_figures() {
+        let e = ScenarioFile::parse("[dispersion.navigation]\ngrade = []\n", "bad")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("dispersion.navigation.grade"), "{e}");
+        let e = ScenarioFile::parse(
+            "[navigation.ins]\nheading_bias_deg = 2.0\n[dispersion.navigation]\ngrade = [\"industrial\"]\n",
+            "bad",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("dispersion.navigation.grade") && e.contains("give one"),
+            "{e}"
+        );
+        // The latency is the file's either way.
+        let f = ScenarioFile::parse(
+            "[navigation.ins]\nlatency_steps = 3\n[dispersion.navigation]\ngrade = [\"industrial\"]\n",
+            "ok",
+        )
+        .unwrap();
+        let r = f.dispersed(5);
+        assert_eq!(r.navigation.grade, InsGrade::Industrial);
+        assert_eq!(r.navigation.ins.latency_steps, 3);
     }
 }

@@ -108,15 +108,25 @@ pub struct Scenario {
     pub camera_body_m: Vector3<f64>,
     /// True boresight pitch minus the level-at-trim mount the controller assumes, rad.
     pub camera_pitch_error_rad: f64,
+    /// True camera roll about its boresight minus the assumed (none), rad: positive turns
+    /// the image's right side down ([`crate::world::camera_misalignment`]).
+    pub camera_roll_error_rad: f64,
+    /// True boresight yaw minus the assumed (none), rad: positive points it right.
+    pub camera_yaw_error_rad: f64,
     /// Probe tip, body axes, m.
     pub probe_tip_body_m: Vector3<f64>,
     /// RMS gust speed, m/s (0: calm).
     pub turbulence_sigma_mps: f64,
+    /// Dryden scale length, m: `None` is MIL-F-8785C's at the flight altitude
+    /// ([`mil_f_8785c_scale_lengths_m`]).
+    pub turbulence_scale_length_m: Option<f64>,
     /// Tanker wake: `None` is off. At another flight condition than the default its density
     /// and airspeed are the condition's ([`FlightCondition::wake_params`]).
     pub wake: Option<WakeParams>,
     /// Bow wave on the drogue.
     pub bow_wave: bool,
+    /// Factor on the bow wave's force (its strength; 1: the published fit).
+    pub bow_wave_strength: f64,
     /// Navigation errors: `None` is perfect navigation.
     pub navigation: Option<InsErrors>,
 }
@@ -153,10 +163,14 @@ impl Scenario {
             camera: CameraChoice::Ideal(CameraParams::default()),
             camera_body_m: SET_BACK_CAMERA_BODY_M.map(f64::from).into(),
             camera_pitch_error_rad: 0.0,
+            camera_roll_error_rad: 0.0,
+            camera_yaw_error_rad: 0.0,
             probe_tip_body_m: Vector3::from(PROBE_TIP_BODY_M),
             turbulence_sigma_mps: 0.0,
+            turbulence_scale_length_m: None,
             wake: None,
             bow_wave: false,
+            bow_wave_strength: 1.0,
             navigation: None,
         }
     }
@@ -432,8 +446,11 @@ pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<
         .transpose()?;
     let gusts = (s.turbulence_sigma_mps > 0.0)
         .then(|| {
-            // Isotropic above 2,000 ft, the validity limit of the condition: one length.
-            let [length_m, _, _] = mil_f_8785c_scale_lengths_m(flight.altitude_m);
+            // Isotropic above 2,000 ft, the validity limit of the condition: one length, the
+            // scenario's when it states one.
+            let length_m = s
+                .turbulence_scale_length_m
+                .unwrap_or_else(|| mil_f_8785c_scale_lengths_m(flight.altitude_m)[0]);
             let params = DrydenParams {
                 sigma_mps: s.turbulence_sigma_mps,
                 length_m,
@@ -463,8 +480,14 @@ pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<
     };
     // The probe tip's marker as the camera sees it (fixed in its view): in view when the
     // camera is set back from the tip (more than 0.5 m behind it).
-    let pitch = trim.theta_rad + s.camera_pitch_error_rad;
-    let tip_camera = crate::world::body_from_camera(pitch)
+    let mount = Mount {
+        position_body_m: s.camera_body_m,
+        pitch_down_rad: trim.theta_rad + s.camera_pitch_error_rad,
+        roll_error_rad: s.camera_roll_error_rad,
+        yaw_error_rad: s.camera_yaw_error_rad,
+    };
+    let tip_camera = mount
+        .body_from_camera()
         .inverse_transform_vector(&(s.probe_tip_body_m - s.camera_body_m));
     let tip_in_view = (tip_camera.z > 0.5).then_some(tip_camera);
     let camera = match s.camera {
@@ -483,14 +506,12 @@ pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<
         tanker: s.tanker,
         drogue,
         camera,
-        mount: Mount {
-            position_body_m: s.camera_body_m,
-            pitch_down_rad: pitch,
-        },
+        mount,
         gusts,
         wake,
         bow_wave: s.bow_wave,
-        bow_wave_scale: flight.bow_wave_scale(&air, &reference_air),
+        // At the default condition and strength, exactly 1 (`1.0 * 1.0`).
+        bow_wave_scale: flight.bow_wave_scale(&air, &reference_air) * s.bow_wave_strength,
     })
 }
 

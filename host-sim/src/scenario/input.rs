@@ -98,11 +98,7 @@ pub fn key_of(e: &ScenarioError) -> Option<String> {
             Some((*key).to_string())
         }
         ScenarioError::Controller(c) => Some(format!("controller.{}", c.field)),
-        // The INS's figures live under [navigation.ins].
-        ScenarioError::Navigation(key) if !key.starts_with("navigation.ins.") => {
-            Some(key.replacen("navigation.", "navigation.ins.", 1))
-        }
-        ScenarioError::Navigation(key) => Some((*key).to_string()),
+        ScenarioError::Navigation(e) => Some(e.limit.key.to_string()),
         ScenarioError::Flight(
             FlightConditionError::NotPositive { key, .. }
             | FlightConditionError::AltitudeOutOfRange { key, .. }

@@ -16,7 +16,11 @@
 //! the drogue axis in the tanker frame (x forward, y right, z down, m). Camera axes: x image
 //! right, y image down, z boresight. Pixels are `u = f x_c / z_c + c_x`, `v = f y_c / z_c +
 //! c_y`, origin at the image's top-left corner; the measurement is normalised,
-//! `((u - c_x) / f, (v - c_y) / f)`.
+//! `((u - c_x) / f, (v - c_y) / f)`. Those are the calibration's `f` and `c`: the LEDs and the
+//! probe tip's marker are rendered through the true lens, which differs from the calibration
+//! by `intrinsics_error` (focal length, principal point, residual radial distortion;
+//! [`super::lens`]), so a miscalibrated camera's errors reach the measurement as they would
+//! (the depth `f R / r_px` included). Without an error the render is the formula above.
 //!
 //! The ring: `led_count` LEDs equally spaced on a circle of radius `ring_radius_m` around the
 //! drogue centre, in the plane perpendicular to the drogue axis (the axis points from the hose
@@ -65,6 +69,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
+
+use super::lens::{IntrinsicsError, Lens};
 
 /// Largest LED count the fixed-size per-frame arrays hold.
 pub const MAX_LEDS: usize = 32;
@@ -278,6 +284,9 @@ pub struct LedCameraParams {
     /// Probability that a captured frame is never delivered, independently per frame, in
     /// `[0, 1)`.
     pub drop_probability: f64,
+    /// The true lens minus the calibration (`focal_px`, `principal_u_px`, `principal_v_px`,
+    /// no distortion) the measurement is computed with ([`super::lens`]); none by default.
+    pub intrinsics_error: IntrinsicsError,
 }
 
 impl Default for LedCameraParams {
@@ -302,6 +311,7 @@ impl Default for LedCameraParams {
             clock_offset_s: 0.0,
             latency_frames: DEFAULT_LATENCY_FRAMES,
             drop_probability: 0.0,
+            intrinsics_error: IntrinsicsError::NONE,
         }
     }
 }
@@ -366,6 +376,16 @@ pub enum CameraError {
     /// Drop probability outside `[0, 1)`.
     #[error("drop probability must be in [0, 1), got {0}")]
     DropProbability(f64),
+    /// The true lens (calibration plus `intrinsics_error`) is not a lens: a focal length not
+    /// finite and positive, a principal point outside the image, or a distortion not finite.
+    #[error(
+        "the true lens (calibration plus error {error:?}) must have a finite, positive focal \
+         length, its principal point inside the image and finite distortion"
+    )]
+    TrueLens {
+        /// The error given.
+        error: IntrinsicsError,
+    },
 }
 
 impl LedCameraParams {
@@ -427,6 +447,17 @@ impl LedCameraParams {
         if !(self.drop_probability >= 0.0 && self.drop_probability < 1.0) {
             return Err(CameraError::DropProbability(self.drop_probability));
         }
+        let lens = self.lens();
+        let [u, v] = lens.true_principal_px();
+        if !(positive(lens.true_focal_px())
+            && inside(u, self.width_px)
+            && inside(v, self.height_px)
+            && self.intrinsics_error.radial_k.iter().all(|k| k.is_finite()))
+        {
+            return Err(CameraError::TrueLens {
+                error: self.intrinsics_error,
+            });
+        }
         Ok(())
     }
 
@@ -438,6 +469,15 @@ impl LedCameraParams {
     /// Latency, s.
     pub fn latency_s(&self) -> f64 {
         f64::from(self.latency_frames) / self.rate_hz
+    }
+
+    /// The lens: the calibration of these parameters and the true lens it misses.
+    pub fn lens(&self) -> Lens {
+        Lens::new(
+            self.focal_px,
+            [self.principal_u_px, self.principal_v_px],
+            self.intrinsics_error,
+        )
     }
 }
 
@@ -563,6 +603,8 @@ pub struct LedCamera {
     /// The probe tip's marker in camera axes, m, when it is in view (a set-back camera).
     probe_tip_camera_m: Option<Vector3<f64>>,
     params: LedCameraParams,
+    /// The true lens and the calibration (from `params`).
+    lens: Lens,
     rng: ChaCha8Rng,
     /// Time of the first `update` call: the camera's clock origin, s.
     clock_origin_s: Option<f64>,
@@ -592,6 +634,7 @@ impl LedCamera {
         let capacity = params.latency_frames as usize + 2;
         Ok(Self {
             params,
+            lens: params.lens(),
             rng: ChaCha8Rng::seed_from_u64(seed),
             clock_origin_s: None,
             next_capture: 0,
@@ -702,20 +745,14 @@ impl LedCamera {
             let nv: f64 = self.rng.sample(StandardNormal);
             Vector2::new(nu, nv) * p.pixel_noise_px
         };
+        let lens = self.lens;
         let probe_tip = self.probe_tip_camera_m.and_then(|t| {
-            let u = quantise(
-                p.focal_px * t.x / t.z + p.principal_u_px + tip_noise.x,
-                p.quantisation_px,
-            );
-            let v = quantise(
-                p.focal_px * t.y / t.z + p.principal_v_px + tip_noise.y,
-                p.quantisation_px,
-            );
+            let (u, v) = lens.pixel(&t)?;
+            let u = quantise(u + tip_noise.x, p.quantisation_px);
+            let v = quantise(v + tip_noise.y, p.quantisation_px);
             ((0.0..=p.width_px).contains(&u) && (0.0..=p.height_px).contains(&v)).then(|| {
-                [
-                    ((u - p.principal_u_px) / p.focal_px) as f32,
-                    ((v - p.principal_v_px) / p.focal_px) as f32,
-                ]
+                let (x, y) = lens.normalised(u, v);
+                [x as f32, y as f32]
             })
         });
 
@@ -750,8 +787,9 @@ impl LedCamera {
                 if !(led_c.z >= p.min_led_depth_m && led_c.z > 0.0) {
                     continue;
                 }
-                let u = p.focal_px * led_c.x / led_c.z + p.principal_u_px;
-                let v = p.focal_px * led_c.y / led_c.z + p.principal_v_px;
+                let Some((u, v)) = lens.pixel(&led_c) else {
+                    continue;
+                };
                 if !((0.0..=p.width_px).contains(&u) && (0.0..=p.height_px).contains(&v)) {
                     continue;
                 }
@@ -773,8 +811,8 @@ impl LedCamera {
             Some(c) => CameraMeasurement {
                 seq: self.last_seq,
                 tracked: true,
-                image_x: ((c.centre_px.x - p.principal_u_px) / p.focal_px) as f32,
-                image_y: ((c.centre_px.y - p.principal_v_px) / p.focal_px) as f32,
+                image_x: lens.normalised(c.centre_px.x, c.centre_px.y).0 as f32,
+                image_y: lens.normalised(c.centre_px.x, c.centre_px.y).1 as f32,
                 depth_m: (p.focal_px * p.ring_radius_m / c.radius_px) as f32,
                 probe_tip,
             },
@@ -1682,5 +1720,127 @@ mod tests {
             assert_eq!(tracked, z >= thresholds[2], "z {z}");
             z -= 0.01;
         }
+    }
+
+    /// A focal-length error scales the reported image point by `f_true / f` and the depth
+    /// by `f / f_true`; a principal-point error shifts the point by `error / f`.
+    #[test]
+    fn a_miscalibrated_lens_scales_and_shifts_what_the_camera_reports() {
+        let p_c = Vector3::new(0.6, -0.4, 6.0);
+        let a = axis_camera(0.0, 0.0);
+        let (nominal, truth, _) = snapshot(noise_free(), &p_c, &a, 1);
+        let with = |error: IntrinsicsError| {
+            snapshot(
+                LedCameraParams {
+                    intrinsics_error: error,
+                    ..noise_free()
+                },
+                &p_c,
+                &a,
+                1,
+            )
+            .0
+        };
+        let long = with(IntrinsicsError {
+            focal_px: 5.0,
+            ..IntrinsicsError::NONE
+        });
+        let k = 505.0 / 500.0;
+        assert!(
+            (f64::from(long.image_x) / (truth.image_x * k) - 1.0).abs() < F32_REL,
+            "{long:?}"
+        );
+        assert!(
+            (f64::from(long.image_y) / (truth.image_y * k) - 1.0).abs() < F32_REL,
+            "{long:?}"
+        );
+        assert!(
+            (f64::from(long.depth_m) / (6.0 / k) - 1.0).abs() < 1e-5,
+            "{long:?}"
+        );
+        let shifted = with(IntrinsicsError {
+            principal_px: [4.0, -3.0],
+            ..IntrinsicsError::NONE
+        });
+        assert!((f64::from(shifted.image_x - nominal.image_x) - 4.0 / 500.0).abs() < 1e-6);
+        assert!((f64::from(shifted.image_y - nominal.image_y) + 3.0 / 500.0).abs() < 1e-6);
+        assert!((shifted.depth_m / nominal.depth_m - 1.0).abs() < 1e-5);
+        // No error: the error-free camera, bit for bit.
+        assert_eq!(with(IntrinsicsError::NONE), nominal);
+    }
+
+    /// Radial distortion moves an off-axis drogue radially by `k1 r^3 + k2 r^5`, the amount
+    /// of a point, and not one on the axis. The ring's LEDs come in opposite pairs, so the fit
+    /// finds the distorted centre up to the distortion's curvature across the ring: within
+    /// `rho^2 (6 k1 r + 20 k2 r^3)`, `rho = R / z` the ring's angular radius.
+    #[test]
+    fn distortion_moves_an_off_axis_drogue_by_the_stated_amount() {
+        let (k1, k2) = (0.01, 0.02);
+        let params = LedCameraParams {
+            intrinsics_error: IntrinsicsError {
+                radial_k: [k1, k2],
+                ..IntrinsicsError::NONE
+            },
+            ..noise_free()
+        };
+        let r = 0.5_f64;
+        let stated = k1 * r.powi(3) + k2 * r.powi(5);
+        for z in [6.0, 20.0] {
+            // Normalised (0.3, 0.4): r = 0.5.
+            let p_c = Vector3::new(0.3 * z, 0.4 * z, z);
+            let (m, t, _) = snapshot(params, &p_c, &axis_camera(0.0, 0.0), 1);
+            let reported = f64::from(m.image_x).hypot(f64::from(m.image_y));
+            let moved = reported - r;
+            let rho = DEFAULT_RING_RADIUS_M / z;
+            let curvature = rho * rho * (6.0 * k1 * r + 20.0 * k2 * r.powi(3));
+            println!(
+                "off-axis drogue at r = 0.5, {z} m: moved {moved:.6} (stated {stated:.6}, \
+                 curvature bound {curvature:.1e})"
+            );
+            assert!(
+                (moved - stated).abs() < curvature,
+                "{z}: {moved} vs {stated}"
+            );
+            let direction = f64::from(m.image_y) / f64::from(m.image_x);
+            assert!((direction - t.image_y / t.image_x).abs() < 1e-5, "radial");
+        }
+        let (centred, _, _) = snapshot(
+            params,
+            &Vector3::new(0.0, 0.0, 6.0),
+            &axis_camera(0.0, 0.0),
+            1,
+        );
+        assert!(
+            centred.image_x.abs() < 1e-7 && centred.image_y.abs() < 1e-7,
+            "{centred:?}"
+        );
+    }
+
+    #[test]
+    fn a_true_lens_outside_the_image_is_named() {
+        let err = LedCamera::new(
+            LedCameraParams {
+                intrinsics_error: IntrinsicsError {
+                    principal_px: [400.0, 0.0],
+                    ..IntrinsicsError::NONE
+                },
+                ..LedCameraParams::default()
+            },
+            0,
+        )
+        .unwrap_err();
+        assert!(matches!(err, CameraError::TrueLens { .. }), "{err}");
+        let err = LedCamera::new(
+            LedCameraParams {
+                intrinsics_error: IntrinsicsError {
+                    focal_px: -500.0,
+                    ..IntrinsicsError::NONE
+                },
+                ..LedCameraParams::default()
+            },
+            0,
+        )
+        .unwrap_err();
+        assert!(matches!(err, CameraError::TrueLens { .. }), "{err}");
     }
 }

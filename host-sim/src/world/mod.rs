@@ -17,6 +17,7 @@ pub mod faults;
 pub mod flight;
 pub mod hose;
 pub mod led_camera;
+pub mod lens;
 pub mod nav;
 pub mod turbulence;
 pub mod wake;
@@ -81,6 +82,16 @@ pub fn body_from_camera(pitch_down_rad: f64) -> Rotation3<f64> {
     Rotation3::from_matrix_unchecked(Matrix3::new(0.0, -s, c, 1.0, 0.0, 0.0, 0.0, c, s))
 }
 
+/// Rotation from the axes of a camera misaligned on its mount to the axes it was meant to
+/// have (both camera axes: x right, y down, z boresight): yawed by `yaw_rad` about the
+/// intended y axis (positive turns the boresight right), then rolled by `roll_rad` about the
+/// resulting boresight (positive turns the image's right side down), the signs of an
+/// aircraft's yaw and roll.
+pub fn camera_misalignment(roll_rad: f64, yaw_rad: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Vector3::y_axis(), yaw_rad)
+        * Rotation3::from_axis_angle(&Vector3::z_axis(), roll_rad)
+}
+
 /// The camera's true mount on the receiver.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Mount {
@@ -88,6 +99,26 @@ pub struct Mount {
     pub position_body_m: Vector3<f64>,
     /// Boresight pitched down from the body x axis, rad.
     pub pitch_down_rad: f64,
+    /// Roll of the camera about its boresight, true minus intended, rad
+    /// ([`camera_misalignment`]).
+    pub roll_error_rad: f64,
+    /// Yaw of the camera's boresight, true minus intended, rad (positive right;
+    /// [`camera_misalignment`]).
+    pub yaw_error_rad: f64,
+}
+
+impl Mount {
+    /// Rotation from the camera's true axes to body axes: the pitched mount
+    /// ([`body_from_camera`]), then the roll and yaw misalignment. Exactly
+    /// [`body_from_camera`] of the pitch when both are zero.
+    pub fn body_from_camera(&self) -> Rotation3<f64> {
+        let mount = body_from_camera(self.pitch_down_rad);
+        if self.roll_error_rad == 0.0 && self.yaw_error_rad == 0.0 {
+            mount
+        } else {
+            mount * camera_misalignment(self.roll_error_rad, self.yaw_error_rad)
+        }
+    }
 }
 
 /// The drogue model of a run.
@@ -144,7 +175,8 @@ pub struct World {
     /// Bow wave on the drogue, when on.
     pub bow_wave: bool,
     /// Factor on the bow wave's force: the dynamic pressure over the default condition's
-    /// ([`flight::FlightCondition::bow_wave_scale`]; 1 there).
+    /// ([`flight::FlightCondition::bow_wave_scale`]; 1 there) times the scenario's bow-wave
+    /// strength (1 by default).
     pub bow_wave_scale: f64,
 }
 
@@ -240,7 +272,7 @@ impl World {
     pub fn camera_pose(&self, x: &ReceiverState, t_s: f64) -> CameraPose {
         CameraPose {
             position_tanker_m: point_in_tanker_m(&self.tanker, x, &self.mount.position_body_m, t_s),
-            tanker_from_camera: ned_from_body(x) * body_from_camera(self.mount.pitch_down_rad),
+            tanker_from_camera: ned_from_body(x) * self.mount.body_from_camera(),
         }
     }
 
@@ -263,5 +295,63 @@ impl World {
                 c.latest()
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use camera::CameraParams;
+
+    /// Where the ideal camera on `mount`, on a receiver with body axes along the tanker's at
+    /// the origin, sees a point that a camera on the intended mount sees at normalised
+    /// `(x, y)`, 6 m deep.
+    fn seen(mount: &Mount, x: f64, y: f64) -> (f64, f64) {
+        let intended = Mount {
+            roll_error_rad: 0.0,
+            yaw_error_rad: 0.0,
+            ..*mount
+        };
+        let point = intended.body_from_camera() * Vector3::new(x * 6.0, y * 6.0, 6.0);
+        let pose = CameraPose {
+            position_tanker_m: Vector3::zeros(),
+            tanker_from_camera: mount.body_from_camera(),
+        };
+        let m = PinholeCamera::new(CameraParams::default()).capture(&pose, &point);
+        assert!(m.tracked);
+        (f64::from(m.image_x), f64::from(m.image_y))
+    }
+
+    /// A roll error rotates the image about its centre by minus the roll; a yaw error moves
+    /// a point on the intended boresight to `x = -tan(yaw)`; none is the pitched mount.
+    #[test]
+    fn a_mount_roll_or_yaw_error_rotates_the_image_as_predicted() {
+        let mount = |roll_deg: f64, yaw_deg: f64| Mount {
+            position_body_m: Vector3::zeros(),
+            pitch_down_rad: 0.11,
+            roll_error_rad: roll_deg.to_radians(),
+            yaw_error_rad: yaw_deg.to_radians(),
+        };
+        assert_eq!(mount(0.0, 0.0).body_from_camera(), body_from_camera(0.11));
+        let (x, y) = (0.2, -0.1);
+        for roll in [0.5_f64, -3.0] {
+            let (xr, yr) = seen(&mount(roll, 0.0), x, y);
+            let (s, c) = roll.to_radians().sin_cos();
+            assert!((xr - (x * c + y * s)).abs() < 1e-6, "{roll}: {xr}");
+            assert!((yr - (-x * s + y * c)).abs() < 1e-6, "{roll}: {yr}");
+        }
+        for yaw in [0.5_f64, -2.0] {
+            let (xr, yr) = seen(&mount(0.0, yaw), 0.0, 0.0);
+            assert!((xr + yaw.to_radians().tan()).abs() < 1e-6, "{yaw}: {xr}");
+            assert!(yr.abs() < 1e-7, "{yaw}: {yr}");
+        }
+        // Both: yaw first, then roll about the yawed boresight.
+        let (xr, yr) = seen(&mount(1.0, 1.0), 0.0, 0.0);
+        let (s, c) = 1f64.to_radians().sin_cos();
+        let t = -1f64.to_radians().tan();
+        assert!(
+            (xr - t * c).abs() < 1e-6 && (yr + t * s).abs() < 1e-6,
+            "{xr}, {yr}"
+        );
     }
 }

@@ -16,6 +16,17 @@
 //! kinematic outputs (the camera's velocity relative to the tanker), so it is not modelled
 //! here.
 //!
+//! A second, lower-grade suite ([`InsGrade::Industrial`]): an industrial MEMS GNSS/INS, the
+//! Xsens MTi-G-700, with the figures of its user manual (Xsens, "MTi User Manual, MTi
+//! 10-series and MTi 100-series", document MT0605P): roll and pitch 0.3 deg (dynamic,
+//! 1 sigma RMS), yaw 1.0 deg, velocity 0.1 m/s (1 sigma RMS), position 1.0 m (horizontal
+//! STD), gyros of 10 deg/h in-run bias stability and 0.01 deg/s/sqrt(Hz) noise density
+//! (0.6 deg/sqrt(h)); its attitude and velocity noise per sample are ours (the tactical
+//! suite's scaled by the gyro noise, `docs/models.md`, "Navigation").
+//!
+//! Every figure has a stated physical range ([`INS_LIMITS`]), checked by
+//! [`InsErrors::check`] with the key, the value and the range named.
+//!
 //! Invariants: angles and speed are perturbations from the trim the gains were designed at;
 //! positions are relative to the CG's position in the tanker frame at the start of the run;
 //! every random draw comes from the run's seed, the same number per sample, so a run is
@@ -59,42 +70,177 @@ pub struct InsErrors {
 }
 
 impl Default for InsErrors {
+    /// The tactical suite ([`InsGrade::Tactical`]).
     fn default() -> Self {
-        Self {
-            attitude_bias_deg: 0.25,
-            heading_bias_deg: 0.5,
-            attitude_noise_deg: 0.02,
-            gyro_bias_deg_per_h: 1.0,
-            gyro_random_walk_deg_per_rt_h: 0.125,
-            velocity_bias_mps: 0.03,
-            velocity_noise_mps: 0.02,
-            position_noise_m: 0.5,
-            latency_steps: 1,
+        InsGrade::Tactical.errors()
+    }
+}
+
+/// Which sensor suite the INS is: its error figures ([`InsGrade::errors`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum InsGrade {
+    /// A GNSS-aided INS on a tactical-grade IMU (Honeywell HG1700 gyros; module doc). The
+    /// default.
+    #[default]
+    Tactical,
+    /// An industrial MEMS GNSS/INS (Xsens MTi-G-700; module doc).
+    Industrial,
+}
+
+impl InsGrade {
+    /// Every grade, in order.
+    pub const ALL: [Self; 2] = [Self::Tactical, Self::Industrial];
+
+    /// The suite's error figures (module doc and `docs/models.md`, "Navigation").
+    pub fn errors(self) -> InsErrors {
+        match self {
+            Self::Tactical => InsErrors {
+                attitude_bias_deg: 0.25,
+                heading_bias_deg: 0.5,
+                attitude_noise_deg: 0.02,
+                gyro_bias_deg_per_h: 1.0,
+                gyro_random_walk_deg_per_rt_h: 0.125,
+                velocity_bias_mps: 0.03,
+                velocity_noise_mps: 0.02,
+                position_noise_m: 0.5,
+                latency_steps: 1,
+            },
+            Self::Industrial => InsErrors {
+                attitude_bias_deg: 0.3,
+                heading_bias_deg: 1.0,
+                // Ours: the tactical suite's 0.02 deg times the gyros' noise ratio, 0.6 / 0.125.
+                attitude_noise_deg: 0.1,
+                gyro_bias_deg_per_h: 10.0,
+                gyro_random_walk_deg_per_rt_h: 0.6,
+                velocity_bias_mps: 0.1,
+                // Ours: in the tactical suite's ratio of noise to bias, about 2 / 3.
+                velocity_noise_mps: 0.07,
+                position_noise_m: 1.0,
+                latency_steps: 1,
+            },
         }
     }
 }
 
+/// One INS figure's allowed range: key (as in a scenario file), inclusive bounds, and the
+/// range as the error states it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InsLimit {
+    /// Dotted key, `navigation.ins.<figure>`.
+    pub key: &'static str,
+    /// Smallest allowed value.
+    pub min: f64,
+    /// Largest allowed value.
+    pub max: f64,
+    /// The range and its reason, as the error gives it.
+    pub allowed: &'static str,
+}
+
+/// The allowed range of every figure of [`InsErrors`], in its field order (ours: physical
+/// limits, each above the worst consumer-grade MEMS sensor; `docs/models.md`, "Navigation").
+pub const INS_LIMITS: [InsLimit; 9] = [
+    InsLimit {
+        key: "navigation.ins.attitude_bias_deg",
+        min: 0.0,
+        max: 5.0,
+        allowed: "0..=5 deg (an aided INS levels to better than a few degrees)",
+    },
+    InsLimit {
+        key: "navigation.ins.heading_bias_deg",
+        min: 0.0,
+        max: 10.0,
+        allowed: "0..=10 deg",
+    },
+    InsLimit {
+        key: "navigation.ins.attitude_noise_deg",
+        min: 0.0,
+        max: 2.0,
+        allowed: "0..=2 deg per sample",
+    },
+    InsLimit {
+        key: "navigation.ins.gyro_bias_deg_per_h",
+        min: 0.0,
+        max: 3600.0,
+        allowed: "0..=3600 deg/h (1 deg/s: a consumer MEMS gyro's turn-on bias)",
+    },
+    InsLimit {
+        key: "navigation.ins.gyro_random_walk_deg_per_rt_h",
+        min: 0.0,
+        max: 10.0,
+        allowed: "0..=10 deg/sqrt(h)",
+    },
+    InsLimit {
+        key: "navigation.ins.velocity_bias_mps",
+        min: 0.0,
+        max: 2.0,
+        allowed: "0..=2 m/s",
+    },
+    InsLimit {
+        key: "navigation.ins.velocity_noise_mps",
+        min: 0.0,
+        max: 2.0,
+        allowed: "0..=2 m/s per sample",
+    },
+    InsLimit {
+        key: "navigation.ins.position_noise_m",
+        min: 0.0,
+        max: 100.0,
+        allowed: "0..=100 m per sample",
+    },
+    InsLimit {
+        key: "navigation.ins.latency_steps",
+        min: 0.0,
+        max: 50.0,
+        allowed: "0..=50 control steps",
+    },
+];
+
+/// An INS figure outside its range ([`INS_LIMITS`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{} = {value} is out of range: allowed {}", limit.key, limit.allowed)]
+pub struct InsRangeError {
+    /// The figure's limit.
+    pub limit: InsLimit,
+    /// The value given.
+    pub value: f64,
+}
+
 impl InsErrors {
-    /// Checks every figure is finite and not negative, naming the first that is not.
-    pub fn validate(&self) -> Result<(), &'static str> {
-        let figures = [
-            ("navigation.attitude_bias_deg", self.attitude_bias_deg),
-            ("navigation.heading_bias_deg", self.heading_bias_deg),
-            ("navigation.attitude_noise_deg", self.attitude_noise_deg),
-            ("navigation.gyro_bias_deg_per_h", self.gyro_bias_deg_per_h),
-            (
-                "navigation.gyro_random_walk_deg_per_rt_h",
-                self.gyro_random_walk_deg_per_rt_h,
-            ),
-            ("navigation.velocity_bias_mps", self.velocity_bias_mps),
-            ("navigation.velocity_noise_mps", self.velocity_noise_mps),
-            ("navigation.position_noise_m", self.position_noise_m),
-        ];
-        match figures.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
-            Some((name, _)) => Err(name),
-            None if self.latency_steps > 50 => Err("navigation.latency_steps"),
+    /// The figures in [`INS_LIMITS`]'s order.
+    pub fn figures(&self) -> [f64; 9] {
+        [
+            self.attitude_bias_deg,
+            self.heading_bias_deg,
+            self.attitude_noise_deg,
+            self.gyro_bias_deg_per_h,
+            self.gyro_random_walk_deg_per_rt_h,
+            self.velocity_bias_mps,
+            self.velocity_noise_mps,
+            self.position_noise_m,
+            f64::from(self.latency_steps),
+        ]
+    }
+
+    /// Checks every figure against its range ([`INS_LIMITS`]), naming the first outside it
+    /// with its value and range (a non-finite value is outside every range).
+    pub fn check(&self) -> Result<(), InsRangeError> {
+        match INS_LIMITS
+            .iter()
+            .zip(self.figures())
+            .find(|(l, v)| !(v.is_finite() && l.min <= *v && *v <= l.max))
+        {
+            Some((limit, value)) => Err(InsRangeError {
+                limit: *limit,
+                value,
+            }),
             None => Ok(()),
         }
+    }
+
+    /// [`InsErrors::check`], the key of the first figure out of range as the error.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        self.check().map_err(|e| e.limit.key)
     }
 }
 
@@ -394,6 +540,77 @@ mod tests {
             velocity_noise_mps: -1.0,
             ..InsErrors::default()
         };
-        assert_eq!(bad.validate(), Err("navigation.velocity_noise_mps"));
+        assert_eq!(bad.validate(), Err("navigation.ins.velocity_noise_mps"));
+    }
+
+    /// RMS error of the attitude (rad), the body rates (rad/s) and the speed (m/s) the INS
+    /// reports of a receiver held at trim, over `n` samples and `seeds` runs.
+    fn rms_errors(grade: InsGrade, n: usize, seeds: u64) -> [f64; 3] {
+        let t = trim();
+        let errors = InsErrors {
+            latency_steps: 0,
+            ..grade.errors()
+        };
+        let mut sum = [0.0; 3];
+        for seed in 0..seeds {
+            let mut ins = InsNav::new(&t, Vector3::zeros(), errors, 0.02, seed);
+            for k in 0..n {
+                let s = ins.sample(&tanker(), &t.state, k as f64 * 0.02);
+                let (lon, lat) = (s.lon, s.lat);
+                let att = [lon.theta_rad, lat.phi_rad, lat.psi_rad];
+                let rate = [lon.q_radps, lat.p_radps, lat.r_radps];
+                sum[0] += att.iter().map(|a| f64::from(*a).powi(2)).sum::<f64>();
+                sum[1] += rate.iter().map(|a| f64::from(*a).powi(2)).sum::<f64>();
+                sum[2] += f64::from(lon.v_mps).powi(2);
+            }
+        }
+        sum.map(|x| (x / (n as f64 * seeds as f64)).sqrt())
+    }
+
+    /// The industrial suite's attitude, rates and speed are worse than the tactical's, by
+    /// about the ratio of their figures.
+    #[test]
+    fn the_industrial_ins_errs_more_than_the_tactical() {
+        let tactical = rms_errors(InsGrade::Tactical, 500, 40);
+        let industrial = rms_errors(InsGrade::Industrial, 500, 40);
+        println!(
+            "rms attitude, rate, speed errors: tactical {tactical:?}, industrial {industrial:?}"
+        );
+        for (name, t, i) in [
+            ("attitude", tactical[0], industrial[0]),
+            ("rates", tactical[1], industrial[1]),
+            ("speed", tactical[2], industrial[2]),
+        ] {
+            assert!(i > 1.5 * t, "{name}: industrial {i} vs tactical {t}");
+        }
+        // Rate noise: ARW sqrt(f), 0.6 against 0.125 deg/sqrt(h) at 50 Hz.
+        let ratio = industrial[1] / tactical[1];
+        assert!((ratio / (0.6 / 0.125) - 1.0).abs() < 0.1, "{ratio}");
+    }
+
+    #[test]
+    fn both_grades_are_inside_every_limit_and_the_limits_name_their_figure() {
+        for g in InsGrade::ALL {
+            assert_eq!(g.errors().check(), Ok(()), "{g:?}");
+        }
+        assert_eq!(INS_LIMITS.len(), InsErrors::default().figures().len());
+        for (i, limit) in INS_LIMITS.iter().enumerate() {
+            // Each key is its figure's: spoil figure i alone and the error names key i.
+            let mut e = InsErrors::default();
+            match i {
+                0 => e.attitude_bias_deg = f64::NAN,
+                1 => e.heading_bias_deg = -1.0,
+                2 => e.attitude_noise_deg = 2.5,
+                3 => e.gyro_bias_deg_per_h = 1e30,
+                4 => e.gyro_random_walk_deg_per_rt_h = 11.0,
+                5 => e.velocity_bias_mps = 3.0,
+                6 => e.velocity_noise_mps = f64::INFINITY,
+                7 => e.position_noise_m = 101.0,
+                _ => e.latency_steps = 51,
+            }
+            let err = e.check().unwrap_err();
+            assert_eq!(err.limit.key, limit.key);
+            assert!(err.to_string().contains(limit.allowed), "{err}");
+        }
     }
 }

@@ -88,6 +88,8 @@ pub const DEFAULT_CORE_GROWTH: f64 = 2.24;
 /// Core radius at the vortex origin and of the bound segments, m (ours: keeps the field
 /// finite at zero age; small beside the 5 m core the model gives at the drogue).
 pub const DEFAULT_INITIAL_CORE_RADIUS_M: f64 = 1.0;
+/// Factor on the induced velocity by default: the model as written.
+pub const DEFAULT_STRENGTH_SCALE: f64 = 1.0;
 
 /// Parameters of the wake model. See the module doc; defaults are the values of
 /// docs/models.md, "Tanker wake" (the authors' values and our geometry).
@@ -119,6 +121,17 @@ pub struct WakeParams {
     pub core_growth: f64,
     /// Core radius at zero age and of the bound segments, m (> 0).
     pub initial_core_radius_m: f64,
+    /// Factor on the circulation in the induced velocity (finite, >= 0): the wake's
+    /// strength, for its uncertainty (the tanker's weight, the model's). The cores keep the
+    /// growth of the circulation above (`nu = viscosity_ratio |Gamma|`), so the velocity
+    /// at every point scales by exactly this factor. Default 1.
+    #[serde(default = "default_strength_scale")]
+    pub strength_scale: f64,
+}
+
+/// [`DEFAULT_STRENGTH_SCALE`], for parameters stored before the strength existed.
+fn default_strength_scale() -> f64 {
+    DEFAULT_STRENGTH_SCALE
 }
 
 impl Default for WakeParams {
@@ -137,6 +150,7 @@ impl Default for WakeParams {
             viscosity_ratio: DEFAULT_VISCOSITY_RATIO,
             core_growth: DEFAULT_CORE_GROWTH,
             initial_core_radius_m: DEFAULT_INITIAL_CORE_RADIUS_M,
+            strength_scale: DEFAULT_STRENGTH_SCALE,
         }
     }
 }
@@ -179,6 +193,12 @@ impl WakeParams {
             if !value.is_finite() {
                 return Err(WakeError::NotFinite { name, value });
             }
+        }
+        if !(self.strength_scale.is_finite() && self.strength_scale >= 0.0) {
+            return Err(WakeError::NotFinite {
+                name: "strength_scale (finite and >= 0)",
+                value: self.strength_scale,
+            });
         }
         Ok(())
     }
@@ -228,8 +248,11 @@ struct Horseshoe {
 }
 
 impl Horseshoe {
+    /// A horseshoe of circulation `gamma` (m^2/s) whose induced velocity is scaled by
+    /// `p.strength_scale` (its cores grow with `gamma` itself).
     fn new(x_m: f64, z_m: f64, semi_span_m: f64, gamma: f64, p: &WakeParams) -> Self {
         let nu = p.viscosity_ratio * gamma.abs();
+        let gamma = gamma * p.strength_scale;
         let rc2_per_s = p.core_growth * p.core_growth * nu;
         let rc0_sq = p.initial_core_radius_m * p.initial_core_radius_m;
         Self {
@@ -339,7 +362,8 @@ impl TankerWake {
         &self.params
     }
 
-    /// Wing circulation, m^2/s.
+    /// Wing circulation of the induced velocity (the parameters' times their
+    /// `strength_scale`), m^2/s.
     pub fn circulation_m2ps(&self) -> f64 {
         self.wing.gamma
     }
@@ -678,5 +702,57 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    /// The strength scales the induced velocity (and so the rates) at every point by exactly
+    /// its value: at the drogue, the receiver, inside a core and ahead of the wing.
+    #[test]
+    fn the_induced_velocity_scales_with_the_strength() {
+        let nominal = wake();
+        let points = [
+            Vector3::from(DROGUE),
+            Vector3::from(RECEIVER_CG),
+            Vector3::new(-30.0, 20.0, 2.0),
+            Vector3::new(25.0, -3.0, -1.0),
+        ];
+        for k in [0.0, 0.75, 1.5, 2.0] {
+            let w = TankerWake::new(WakeParams {
+                strength_scale: k,
+                ..WakeParams::default()
+            })
+            .unwrap();
+            assert!((w.circulation_m2ps() - k * nominal.circulation_m2ps()).abs() < 1e-12);
+            for p in &points {
+                let (got, want) = (w.velocity_tanker_mps(p), nominal.velocity_tanker_mps(p) * k);
+                assert!(
+                    (got - want).norm() <= 1e-13 * want.norm().max(1.0),
+                    "{k} at {p}: {got} vs {want}"
+                );
+                let (got, want) = (
+                    w.angular_rate_tanker_radps(p, F16_SPAN_M, F16_LENGTH_M),
+                    nominal.angular_rate_tanker_radps(p, F16_SPAN_M, F16_LENGTH_M) * k,
+                );
+                assert!(
+                    (got - want).norm() <= 1e-13 * want.norm().max(1.0),
+                    "{k} at {p}"
+                );
+            }
+        }
+        println!(
+            "downwash at the drogue: {:.3} m/s at strength 1, {:.3} at 1.5",
+            nominal.velocity_tanker_mps(&Vector3::from(DROGUE)).z,
+            1.5 * nominal.velocity_tanker_mps(&Vector3::from(DROGUE)).z
+        );
+        for bad in [-0.1, f64::NAN, f64::INFINITY] {
+            let err = TankerWake::new(WakeParams {
+                strength_scale: bad,
+                ..WakeParams::default()
+            })
+            .unwrap_err();
+            assert!(
+                matches!(err, WakeError::NotFinite { name, .. } if name.starts_with("strength_scale")),
+                "{err}"
+            );
+        }
     }
 }

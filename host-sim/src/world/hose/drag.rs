@@ -243,4 +243,33 @@ mod tests {
         let mu = 1.458e-6 * t.powf(1.5) / (t + 110.4);
         assert!((mu / AIR_DYNAMIC_VISCOSITY_3000M_PA_S - 1.0).abs() < 1e-4);
     }
+
+    /// The drag scale multiplies both of a link's coefficients: the link force scales by it.
+    #[test]
+    fn the_drag_scale_multiplies_the_link_force() {
+        let p = crate::world::hose::HoseParams::default();
+        let base = Model::new(&p);
+        let e = Vector3::new(-0.95, 0.1, 0.3).normalize();
+        for scale in [0.0, 0.5, 2.0] {
+            let m = Model::new(&crate::world::hose::HoseParams {
+                hose_drag_scale: scale,
+                ..p
+            });
+            for rel in [
+                Vector3::new(-120.0, 3.0, -2.0),
+                Vector3::new(-80.0, -1.0, 4.0),
+            ] {
+                let (got, want) = (m.link_aero(rel, e), base.link_aero(rel, e) * scale);
+                assert!(
+                    (got - want).norm() <= 1e-12 * want.norm().max(1.0),
+                    "{scale}: {got} vs {want}"
+                );
+            }
+            // The drogue's drag is the drogue's: not scaled.
+            assert_eq!(
+                m.drogue_drag(Vector3::new(-120.0, 0.0, 0.0)),
+                base.drogue_drag(Vector3::new(-120.0, 0.0, 0.0))
+            );
+        }
+    }
 }

@@ -35,9 +35,9 @@ pub(super) struct Model {
     pub(super) max_inv_mass: f64,
     pub(super) total_mass: f64,
     pub(super) gravity: f64,
-    /// `0.5 rho pi d l`, skin friction: force = k Cf v_t |v_t|.
+    /// `0.5 rho pi d l s`, skin friction: force = k Cf v_t |v_t| (`s` the drag scale).
     pub(super) skin_k: f64,
-    /// `0.5 rho d l`, cross flow: force = k Cd |v_n| v_n.
+    /// `0.5 rho d l s`, cross flow: force = k Cd |v_n| v_n (`s` the drag scale).
     pub(super) normal_k: f64,
     /// `0.5 rho (pi D^2 / 4) Cd`, drogue: force = k |v| v.
     pub(super) drogue_k: f64,
@@ -74,8 +74,9 @@ impl Model {
             max_inv_mass,
             total_mass,
             gravity: p.gravity_mps2,
-            skin_k: 0.5 * rho * std::f64::consts::PI * diameter * l,
-            normal_k: 0.5 * rho * diameter * l,
+            // The scale is 1 by default, and `x * 1.0` is `x`: the default model is unchanged.
+            skin_k: 0.5 * rho * std::f64::consts::PI * diameter * l * p.hose_drag_scale,
+            normal_k: 0.5 * rho * diameter * l * p.hose_drag_scale,
             drogue_k: 0.5 * rho * drogue_area * p.drogue_drag_coefficient,
             ln_re_d_per_speed: (diameter / nu).ln(),
             ln_re_f_per_speed: (std::f64::consts::PI * p.hose_outer_radius_m / nu).ln(),

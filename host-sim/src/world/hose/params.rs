@@ -145,6 +145,10 @@ pub struct HoseParams {
     pub gravity_mps2: f64,
     /// Drag coefficient laws of the hose links. Default [`HoseDragLaw::ReynoldsDependent`].
     pub hose_drag_law: HoseDragLaw,
+    /// Factor on both of the links' coefficients (cross flow and skin friction), for their
+    /// uncertainty (finite, not negative). Default 1: the laws as they are.
+    #[serde(default = "default_hose_drag_scale")]
+    pub hose_drag_scale: f64,
     /// Largest internal integration step, s. Default 0.01 s.
     pub max_internal_step_s: f64,
 }
@@ -163,9 +167,18 @@ impl Default for HoseParams {
             air_dynamic_viscosity_pa_s: AIR_DYNAMIC_VISCOSITY_3000M_PA_S,
             gravity_mps2: STANDARD_GRAVITY_MPS2,
             hose_drag_law: HoseDragLaw::ReynoldsDependent,
+            hose_drag_scale: DEFAULT_HOSE_DRAG_SCALE,
             max_internal_step_s: DEFAULT_MAX_INTERNAL_STEP_S,
         }
     }
+}
+
+/// Factor on the hose links' drag coefficients by default: the laws as they are.
+pub const DEFAULT_HOSE_DRAG_SCALE: f64 = 1.0;
+
+/// [`DEFAULT_HOSE_DRAG_SCALE`], for parameters stored before the scale existed.
+fn default_hose_drag_scale() -> f64 {
+    DEFAULT_HOSE_DRAG_SCALE
 }
 
 impl HoseParams {
@@ -218,6 +231,7 @@ impl HoseParams {
         let mut non_negative = vec![
             ("drogue_drag_coefficient", self.drogue_drag_coefficient),
             ("gravity_mps2", self.gravity_mps2),
+            ("hose_drag_scale", self.hose_drag_scale),
         ];
         if let HoseDragLaw::Constant {
             cross_flow_cd,
@@ -289,7 +303,7 @@ mod tests {
     #[test]
     fn invalid_parameters_are_named_errors() {
         type Spoil = fn(&mut HoseParams);
-        let cases: [(&str, Spoil); 13] = [
+        let cases: [(&str, Spoil); 14] = [
             ("link_count", |p| p.link_count = 0),
             ("hose_length_m", |p| p.hose_length_m = 0.0),
             ("hose_linear_density_kg_per_m", |p| {
@@ -309,6 +323,7 @@ mod tests {
             }),
             ("gravity_mps2", |p| p.gravity_mps2 = f64::NAN),
             ("max_internal_step_s", |p| p.max_internal_step_s = 0.0),
+            ("hose_drag_scale", |p| p.hose_drag_scale = -0.5),
             ("hose_drag_law.cross_flow_cd", |p| {
                 p.hose_drag_law = HoseDragLaw::Constant {
                     cross_flow_cd: -1.0,

@@ -265,4 +265,106 @@ mod tests {
         assert!(p.z > calm_z + 0.3 && p.y > 0.0, "{p:?}");
         assert!(max_link_error(&h) < 1e-12);
     }
+
+    /// The drogue's steady trail as statics gives it for a hose without drag of its own, in
+    /// calm air: each link lies along the resultant of the forces on everything aft of it,
+    /// the drogue's drag `0.5 rho V^2 (pi D^2 / 4) Cd` aft and the weights of the nodes aft
+    /// (half a link's mass at each end of a link, the drogue's at the last node).
+    fn statics_trail(p: &HoseParams) -> Vector3<f64> {
+        let n = p.link_count;
+        let l = p.hose_length_m / n as f64;
+        let link_mass = p.hose_linear_density_kg_per_m * l;
+        let area = std::f64::consts::PI * p.drogue_canopy_diameter_m.powi(2) / 4.0;
+        let drag = 0.5 * p.air_density_kg_per_m3 * V_MPS * V_MPS * area * p.drogue_drag_coefficient;
+        (0..n)
+            .map(|k| {
+                let mass_aft = ((n - k) as f64 - 0.5) * link_mass + p.drogue_mass_kg;
+                Vector3::new(-drag, 0.0, mass_aft * p.gravity_mps2).normalize() * l
+            })
+            .sum()
+    }
+
+    /// The drogue's mass and drag, the hose's length and mass move the steady trail exactly
+    /// as statics predicts (without the hose's own drag, which statics cannot give in closed
+    /// form), and a heavier drogue or hose hangs lower, a draggier drogue trails higher.
+    #[test]
+    fn the_steady_trail_moves_with_the_drogues_drag_and_mass_as_statics_predicts() {
+        let nominal = HoseParams {
+            hose_drag_scale: 0.0,
+            ..HoseParams::default()
+        };
+        let cases = [
+            nominal,
+            HoseParams {
+                drogue_mass_kg: 23.6,
+                ..nominal
+            },
+            HoseParams {
+                drogue_mass_kg: 35.4,
+                ..nominal
+            },
+            HoseParams {
+                drogue_drag_coefficient: 0.68,
+                ..nominal
+            },
+            HoseParams {
+                drogue_drag_coefficient: 0.92,
+                ..nominal
+            },
+            HoseParams {
+                hose_length_m: 13.45,
+                ..nominal
+            },
+            HoseParams {
+                hose_length_m: 15.2,
+                ..nominal
+            },
+            HoseParams {
+                hose_linear_density_kg_per_m: 3.48,
+                ..nominal
+            },
+            HoseParams {
+                hose_linear_density_kg_per_m: 4.71,
+                ..nominal
+            },
+        ];
+        let z: Vec<f64> = cases
+            .iter()
+            .map(|p| {
+                let got = calm_trail(*p).drogue_centre_tanker_m();
+                let want = statics_trail(p);
+                assert!((got - want).norm() < 1e-9, "{p:?}: {got} vs statics {want}");
+                got.z
+            })
+            .collect();
+        println!(
+            "drogue depth: nominal {:.3} m; mass 23.6/35.4 kg {:.3}/{:.3}; Cd 0.68/0.92 {:.3}/{:.3}",
+            z[0], z[1], z[2], z[3], z[4]
+        );
+        assert!(z[1] < z[0] && z[0] < z[2], "heavier hangs lower: {z:?}");
+        assert!(z[3] > z[0] && z[0] > z[4], "draggier trails higher: {z:?}");
+        assert!(
+            z[7] < z[0] && z[0] < z[8],
+            "a heavier hose hangs lower: {z:?}"
+        );
+    }
+
+    /// The hose's drag scale acts: the links' drag lifts the trail, more of it more.
+    #[test]
+    fn more_hose_drag_trails_the_drogue_higher() {
+        let trail = |scale: f64| {
+            calm_trail(HoseParams {
+                hose_drag_scale: scale,
+                ..HoseParams::default()
+            })
+            .drogue_centre_tanker_m()
+        };
+        let (none, half, one, two) = (trail(0.0), trail(0.5), trail(1.0), trail(2.0));
+        println!("drogue with hose drag x0, x0.5, x1, x2: {none:?} {half:?} {one:?} {two:?}");
+        assert!(none.z > half.z && half.z > one.z && one.z > two.z);
+        assert_eq!(
+            one,
+            calm_trail(HoseParams::default()).drogue_centre_tanker_m()
+        );
+    }
 }
