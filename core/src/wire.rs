@@ -331,8 +331,10 @@ pub enum ClockSource {
     /// The external crystal through the PLL (the design).
     Crystal,
     /// The crystal did not start within the boot's bounded wait: the internal RC oscillator
-    /// through the PLL, at the same frequencies but with the RC's accuracy (about 1 %, the
-    /// serial link's timing with it).
+    /// through the PLL, at the same frequencies but with the RC's accuracy (1 % at 25 °C,
+    /// -8..+4.5 % over the temperature range: the STM32F405xx datasheet's HSI
+    /// characteristics), and the serial link's timing with it: the controller stays in
+    /// standby until the peer's `Reset` shows the link works (the firmware's boot module).
     InternalFallback,
 }
 

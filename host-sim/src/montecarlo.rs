@@ -294,6 +294,66 @@ pub struct RunInputs {
     pub airspeed_mps: f64,
     /// Flight condition: altitude, m.
     pub altitude_m: f64,
+    /// The plant the run flew, which the controller's design does not know (all nominal
+    /// unless the campaign disperses it).
+    pub plant: PlantInputs,
+}
+
+/// The true plant of one run: the receiver's factors and the world's physical parameters
+/// (docs/models.md, "Receiver plant dispersions" and each model's dispersion).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PlantInputs {
+    /// The receiver's factors on its aerodynamics, mass, inertia, actuators and engine.
+    pub receiver: crate::receiver::ReceiverPlant,
+    /// Drogue mass, kg.
+    pub drogue_mass_kg: f64,
+    /// Canopy drag coefficient.
+    pub drogue_drag_coefficient: f64,
+    /// Hose length, m.
+    pub hose_length_m: f64,
+    /// Hose mass per length, kg/m.
+    pub hose_linear_density_kg_per_m: f64,
+    /// Factor on the hose's drag coefficients.
+    pub hose_drag_scale: f64,
+    /// Dryden scale length, m (`None`: the turbulence model's own by altitude).
+    pub turbulence_scale_length_m: Option<f64>,
+    /// Factor on the tanker wake's circulation.
+    pub tanker_wake_strength: f64,
+    /// Factor on the bow wave's effect.
+    pub bow_wave_strength: f64,
+    /// Camera mount roll and yaw errors, degrees.
+    pub mount_roll_yaw_error_deg: [f64; 2],
+    /// True focal length minus the calibration's, px.
+    pub focal_error_px: f64,
+    /// True principal point minus the calibration's (u, v), px.
+    pub principal_point_error_px: [f64; 2],
+    /// Residual radial distortion `k1`, `k2`.
+    pub radial_distortion_k: [f64; 2],
+    /// The INS's grade.
+    pub ins_grade: crate::world::nav::InsGrade,
+}
+
+impl PlantInputs {
+    /// The plant of a run's scenario file.
+    pub fn of(f: &ScenarioFile) -> Self {
+        let (d, c) = (&f.drogue, &f.camera);
+        Self {
+            receiver: f.receiver.plant,
+            drogue_mass_kg: d.drogue_mass_kg,
+            drogue_drag_coefficient: d.drogue_drag_coefficient,
+            hose_length_m: d.hose_length_m,
+            hose_linear_density_kg_per_m: d.hose_linear_density_kg_per_m,
+            hose_drag_scale: d.hose_drag_scale,
+            turbulence_scale_length_m: f.turbulence.scale_length_m,
+            tanker_wake_strength: f.tanker_wake.strength,
+            bow_wave_strength: f.bow_wave.strength,
+            mount_roll_yaw_error_deg: [c.mount_roll_error_deg, c.mount_yaw_error_deg],
+            focal_error_px: c.focal_error_px,
+            principal_point_error_px: c.principal_point_error_px,
+            radial_distortion_k: [c.radial_distortion_k1, c.radial_distortion_k2],
+            ins_grade: f.navigation.grade,
+        }
+    }
 }
 
 impl RunInputs {
@@ -313,6 +373,7 @@ impl RunInputs {
             },
             airspeed_mps: f.flight.airspeed_mps,
             altitude_m: f.flight.altitude_m,
+            plant: PlantInputs::of(f),
         }
     }
 }
@@ -1916,6 +1977,30 @@ mod tests {
         assert_eq!(quantile(&v, 1.0), Some(4.0));
         assert!((quantile(&v, 0.95).unwrap() - 3.85).abs() < 1e-12);
         assert_eq!(quantile(&[], 0.5), None);
+    }
+
+    #[test]
+    fn a_run_record_carries_the_plant_it_flew() {
+        let f = ScenarioFile::load("level2").expect("preset");
+        let mut grades = std::collections::BTreeSet::new();
+        for i in 0..20 {
+            let run = f.dispersed(i);
+            let p = RunInputs::of(&run).plant;
+            assert_eq!(p.receiver, run.receiver.plant, "run {i}");
+            assert!(!p.receiver.is_nominal(), "run {i}");
+            assert_eq!(p.hose_length_m, run.drogue.hose_length_m, "run {i}");
+            assert_eq!(p.tanker_wake_strength, run.tanker_wake.strength, "run {i}");
+            assert_eq!(
+                p.radial_distortion_k[1], run.camera.radial_distortion_k2,
+                "run {i}"
+            );
+            grades.insert(format!("{:?}", p.ins_grade));
+        }
+        assert_eq!(grades.len(), 2, "both INS grades among 20 runs: {grades:?}");
+        let nominal = ScenarioFile::load("nominal-level2")
+            .expect("preset")
+            .dispersed(3);
+        assert!(RunInputs::of(&nominal).plant.receiver.is_nominal());
     }
 
     #[test]

@@ -986,8 +986,8 @@ macro_rules! refuelling_dispersion {
 /// Dryden scale length, the wake's and the bow wave's strengths), the camera (mount roll and
 /// yaw, the lens against its calibration) and the INS's grade, each range from a public
 /// source or marked ours in `docs/models.md` (each model's "Dispersion" subsection). To be
-/// appended after a preset's `[dispersion]` keys (it opens its own sub-tables). Not in the
-/// presets yet: [`WORLD_PLANT_DISPERSION`] is the same text.
+/// appended after a preset's `[dispersion]` keys (it opens its own sub-tables); part of
+/// [`plant_dispersion`], and exported as [`WORLD_PLANT_DISPERSION`].
 macro_rules! world_plant_dispersion {
     () => {
         concat!(
@@ -1065,13 +1065,23 @@ macro_rules! receiver_plant_dispersion {
 /// macro's TOML): a `[dispersion.receiver]` table to append to a scenario file.
 pub const RECEIVER_PLANT_DISPERSION: &str = receiver_plant_dispersion!();
 
+/// The plant dispersion every refuelling preset flies (all but `nominal-level2`): the
+/// receiver's ([`receiver_plant_dispersion`]) and the world's ([`world_plant_dispersion`]).
+/// Both open `[dispersion]` sub-tables, so this goes after every flat `[dispersion]` key of a
+/// preset, the envelope's included.
+macro_rules! plant_dispersion {
+    () => {
+        concat!(receiver_plant_dispersion!(), world_plant_dispersion!())
+    };
+}
+
 /// The RMS gust intensity range of `mil-level2`: MIL-F-8785C's at probability of
 /// exceedance 1e-2 at 3000 m ([`crate::world::turbulence::mil_f_8785c_sigma_mps`], 1.84 m/s)
 /// +/-20 %, m/s (tested against the table).
 pub const MIL_LEVEL2_SIGMA_RANGE_MPS: [f64; 2] = [1.47, 2.21];
 
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
-pub const PRESETS: [(&str, &str, &str); 12] = [
+pub const PRESETS: [(&str, &str, &str); 13] = [
     (
         "calm",
         "paper start, calm air, tanker wake, hose and LED camera, refuelling procedure (the default)",
@@ -1131,12 +1141,22 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         "the refuelling procedure, set-back camera, INS errors: paper start, level I turbulence (0.5 m/s)",
         concat!(
             "[turbulence]\npreset = \"level1\"\n",
-            refuelling_dispersion!("[0.4, 0.6]")
+            refuelling_dispersion!("[0.4, 0.6]"),
+            plant_dispersion!()
         ),
     ),
     (
         "level2",
         "the refuelling procedure, set-back camera, INS errors: paper start, level II turbulence (0.7 m/s)",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n",
+            refuelling_dispersion!("[0.56, 0.84]"),
+            plant_dispersion!()
+        ),
+    ),
+    (
+        "nominal-level2",
+        "level2 on the design's own plant: no receiver, hose, air, camera or INS-grade dispersion",
         concat!(
             "[turbulence]\npreset = \"level2\"\n",
             refuelling_dispersion!("[0.56, 0.84]")
@@ -1147,7 +1167,8 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         "the refuelling procedure, set-back camera, INS errors: paper start, level I turbulence and the bow wave",
         concat!(
             "[turbulence]\npreset = \"level1\"\n[bow_wave]\nenabled = true\n",
-            refuelling_dispersion!("[0.4, 0.6]")
+            refuelling_dispersion!("[0.4, 0.6]"),
+            plant_dispersion!()
         ),
     ),
     (
@@ -1155,7 +1176,8 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         "the refuelling procedure: MIL-F-8785C intensity at exceedance 1e-2 at 3000 m (1.84 m/s) +/-20 %",
         concat!(
             "[turbulence]\nsigma_mps = 1.84\n",
-            refuelling_dispersion!("[1.47, 2.21]")
+            refuelling_dispersion!("[1.47, 2.21]"),
+            plant_dispersion!()
         ),
     ),
     (
@@ -1171,6 +1193,7 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
             "mount_pitch_error_deg = [-0.5, 0.5]\n",
             "xcg = [0.30, 0.40]\n",
             "nav_latency_steps = [1, 2]\n",
+            plant_dispersion!()
         ),
     ),
     (
@@ -1179,7 +1202,8 @@ pub const PRESETS: [(&str, &str, &str); 12] = [
         concat!(
             "[turbulence]\npreset = \"level2\"\n",
             refuelling_dispersion!("[0.56, 0.84]"),
-            envelope_dispersion!()
+            envelope_dispersion!(),
+            plant_dispersion!()
         ),
     ),
 ];
@@ -2161,14 +2185,81 @@ mod tests {
         );
     }
 
-    /// `level2` with the receiver's plant dispersion appended.
+    /// `level2`, which flies the receiver's plant dispersion.
     fn level2_with_plant_dispersion() -> ScenarioFile {
-        let level2 = PRESETS.iter().find(|p| p.0 == "level2").map_or("", |p| p.2);
-        ScenarioFile::parse(
-            &format!("{level2}{RECEIVER_PLANT_DISPERSION}"),
-            "level2-plant",
-        )
-        .unwrap()
+        ScenarioFile::load("level2").unwrap()
+    }
+
+    /// Every refuelling preset flies both plant dispersions, exactly the exported ranges;
+    /// `nominal-level2` and the paper presets fly the design's plant.
+    #[test]
+    fn the_refuelling_presets_fly_the_plant_dispersions_and_the_others_do_not() {
+        let receiver = ScenarioFile::parse(RECEIVER_PLANT_DISPERSION, "r").unwrap();
+        let world = ScenarioFile::parse(WORLD_PLANT_DISPERSION, "w").unwrap();
+        let refuelling = [
+            "level1",
+            "level2",
+            "bow-wave",
+            "mil-level2",
+            "wide-start",
+            "envelope",
+        ];
+        for (name, _, _) in PRESETS {
+            let d = ScenarioFile::load(name).unwrap().dispersion;
+            if refuelling.contains(&name) {
+                assert_eq!(d.receiver, receiver.dispersion.receiver, "{name}");
+                assert_eq!(d.drogue, world.dispersion.drogue, "{name}");
+                assert_eq!(d.turbulence, world.dispersion.turbulence, "{name}");
+                assert_eq!(d.tanker_wake, world.dispersion.tanker_wake, "{name}");
+                assert_eq!(d.bow_wave, world.dispersion.bow_wave, "{name}");
+                assert_eq!(d.camera, world.dispersion.camera, "{name}");
+                assert_eq!(d.navigation, world.dispersion.navigation, "{name}");
+            } else {
+                assert!(d.receiver.is_empty(), "{name}");
+                assert!(
+                    d.drogue.is_empty()
+                        && d.turbulence.is_empty()
+                        && d.tanker_wake.is_empty()
+                        && d.bow_wave.is_empty()
+                        && d.camera.is_empty()
+                        && d.navigation.is_empty(),
+                    "{name}"
+                );
+            }
+        }
+        // nominal-level2 is level2 but for the plant.
+        let mut plant = ScenarioFile::load("level2").unwrap();
+        plant.dispersion.receiver = ReceiverPlantRanges::default();
+        let nominal = ScenarioFile::load("nominal-level2").unwrap();
+        plant.dispersion.drogue = nominal.dispersion.drogue.clone();
+        plant.dispersion.turbulence = nominal.dispersion.turbulence.clone();
+        plant.dispersion.tanker_wake = nominal.dispersion.tanker_wake.clone();
+        plant.dispersion.bow_wave = nominal.dispersion.bow_wave.clone();
+        plant.dispersion.camera = nominal.dispersion.camera.clone();
+        plant.dispersion.navigation = nominal.dispersion.navigation.clone();
+        plant.name = nominal.name.clone();
+        assert_eq!(plant, nominal);
+        // The plant's draws take streams of their own: the runs of the two presets share
+        // every other draw (start, air, camera noise and latency, mount, cg, INS latency).
+        let level2 = ScenarioFile::load("level2").unwrap();
+        for i in [0, 3, 999, 1_000_000] {
+            let (a, b) = (level2.dispersed(i), nominal.dispersed(i));
+            assert_eq!(a.initial, b.initial, "run {i}");
+            assert_eq!(a.turbulence.sigma_mps, b.turbulence.sigma_mps, "run {i}");
+            assert_eq!(a.receiver.xcg, b.receiver.xcg, "run {i}");
+            assert_eq!(a.camera.pixel_noise_px, b.camera.pixel_noise_px, "run {i}");
+            assert_eq!(a.camera.latency_frames, b.camera.latency_frames, "run {i}");
+            assert_eq!(a.camera.mount_error_m, b.camera.mount_error_m, "run {i}");
+            assert_eq!(
+                a.camera.mount_pitch_error_deg, b.camera.mount_pitch_error_deg,
+                "run {i}"
+            );
+            assert_eq!(
+                a.navigation.ins.latency_steps, b.navigation.ins.latency_steps,
+                "run {i}"
+            );
+            assert_ne!(a.receiver.plant, b.receiver.plant, "run {i}");
+        }
     }
 
     #[test]
@@ -2306,7 +2397,8 @@ mod tests {
     #[test]
     fn each_plant_factor_has_its_own_stream() {
         let with_plant = level2_with_plant_dispersion();
-        let level2 = ScenarioFile::load("level2").unwrap();
+        let mut level2 = ScenarioFile::load("level2").unwrap();
+        level2.dispersion.receiver = ReceiverPlantRanges::default();
         let mut fewer = with_plant.clone();
         fewer.dispersion.receiver.mass_scale = None;
         fewer.receiver.plant.mass_scale = 1.1;
@@ -2561,11 +2653,7 @@ mod tests {
     #[test]
     fn the_plant_dispersion_draws_are_deterministic_in_range_and_independent() {
         for name in ["level2", "mil-level2"] {
-            let text = format!(
-                "{}{WORLD_PLANT_DISPERSION}",
-                PRESETS.iter().find(|p| p.0 == name).unwrap().2
-            );
-            let base = ScenarioFile::parse(&text, name).unwrap();
+            let base = ScenarioFile::load(name).unwrap();
             let d = base.dispersion.clone();
             let mut grades = std::collections::BTreeSet::new();
             let mut lows = [false; 14];

@@ -48,12 +48,12 @@ fn station_hold_failure(run: &Run, cfg: &ControllerConfig) -> Option<String> {
         f64::from(rc.station_offset_tol_m) + TRUTH_MARGIN_M,
         f64::from(rc.station_clear_offset_m) + TRUTH_MARGIN_M,
     );
-    for k in start - dwell..start {
-        let depth = s[k].drogue_from_tip_m.x - f64::from(rc.station_depth_m);
+    for (k, sample) in s.iter().enumerate().take(start).skip(start - dwell) {
+        let depth = sample.drogue_from_tip_m.x - f64::from(rc.station_depth_m);
         if depth.abs() > depth_tol || lateral(k) > offset_tol {
             return Some(format!(
                 "off the station in the dwell at {:.2} s: {:.3} m from its depth, {:.3} m aside",
-                s[k].time_s,
+                sample.time_s,
                 depth,
                 lateral(k)
             ));
