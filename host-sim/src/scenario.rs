@@ -836,7 +836,7 @@ macro_rules! plant_bound {
 }
 
 /// The plant keys' ranges (ours: physical limits of the models, wider than any dispersion;
-/// `docs/scenarios.md`, "Keys"; the refuelling presets' dispersions are in `docs/models.md`).
+/// `docs/scenario-keys.md`; the refuelling presets' dispersions are in `docs/models.md`).
 pub mod plant_bounds {
     use super::PlantBound;
 

@@ -1,6 +1,7 @@
 //! Monte Carlo campaigns: determinism per run index, shards merging into exactly the
 //! one-machine output, the summary's numbers, the command line. Campaigns here are small (CI);
-//! the 1,000-run campaigns are measured by hand (`docs/scenarios.md`, "Monte Carlo").
+//! the held-out campaigns of 1,000 and 10,000 runs are measured by hand (`docs/scenarios.md`,
+//! "Measured campaigns").
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -451,23 +452,43 @@ fn an_envelope_campaign_counts_every_run_in_one_condition_cell() {
     std::fs::remove_dir_all(&root).ok();
 }
 
+/// Runs 0..39 of `nominal-level2` and of `level2` (the same sorties, the plant dispersed in
+/// the second), judged by the referee. Each bound is where the held-out campaign's rate
+/// (`docs/scenarios.md`, "Measured: the refuelling presets", runs 1,000,000..1,009,999)
+/// puts the tail below 0.5 %: a count beyond it says the controller or the plant changed.
 #[test]
-fn a_level2_refuelling_campaign_ends_no_sortie_unsafe_and_docks_its_sorties() {
-    // The refuelling procedure in level II air with navigation errors. Measured over 10,000
-    // runs: 0 unsafe end states, 98.62 % docked within the sortie (70.7 % at the first
-    // attempt); here 39 of these 40 dock. At 98.62 %, three or more failed sorties in 40 have
-    // a probability of 1.6 %; any unsafe end state fails.
+fn level2_campaigns_on_the_design_plant_and_on_dispersed_plants_keep_their_rates() {
     let dir = temp("level2");
+    // nominal-level2: 9,999 of 10,000 docked, 23 unsafe. Held out, one failure in 40 has a
+    // probability of 0.4 %, two unsafe runs 0.4 %. Measured here: 40 docked, 0 unsafe.
+    let f = ScenarioFile::load("nominal-level2").expect("preset");
+    campaign(&f, 40, None, 2, &dir);
+    let s = summary(&dir);
+    assert_eq!(s.runs, 40);
+    assert_eq!(s.docked, 40, "{:?}", s.failure_causes);
+    assert!(s.unsafe_runs <= 1, "hazards: {:?}", s.hazards);
+    std::fs::remove_dir_all(&dir).ok();
+    // level2: success 82.61 %, unsafe 6.02 % held out. 24 or fewer successes in 40 have a
+    // probability of 0.06 %, more than 8 unsafe runs 0.05 %. Measured here: 35 successes,
+    // 3 unsafe (a basket strike, two upsets).
     let f = ScenarioFile::load("level2").expect("preset");
     campaign(&f, 40, None, 2, &dir);
     let s = summary(&dir);
     assert_eq!(s.runs, 40);
-    assert_eq!(s.unsafe_runs, 0, "a hazard: {:?}", s.hazards);
     assert!(
-        s.success >= 38,
-        "{} of 40 docked: {:?}",
-        s.docked,
+        s.success >= 25,
+        "{} of 40: {:?}",
+        s.success,
         s.failure_causes
+    );
+    assert!(s.unsafe_runs <= 8, "hazards: {:?}", s.hazards);
+    // The dispersed plant is flown: the summary's dispersion carries it.
+    assert!(
+        serde_json::to_string(&s.dispersion)
+            .expect("json")
+            .contains("engine_time_constant_scale"),
+        "{:?}",
+        s.dispersion
     );
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -571,11 +592,11 @@ fn cli_runs_a_fifty_run_campaign_in_shards_and_merges_it() {
     assert!(line.starts_with("paper-level2: 50 runs, success"), "{line}");
     let s = summary(&root.join("all"));
     assert_eq!(s.runs, 50);
-    // Measured: 50 of these 50; 98.96 % over 5,000 runs. At that rate three or more
-    // failures in 50 have a probability of 1.3 %.
+    // Measured: 50 of these 50 docked; 988 of the 1,000 held-out runs (`docs/scenarios.md`).
+    // At that rate three or more failures in 50 have a probability of 2.2 %.
     assert!(
         s.docked >= 48,
-        "level II with dispersion docks 98.96 % over 5,000 runs and 50 of these 50: {line}"
+        "paper-level2 docks 98.8 % of held-out runs and 50 of these 50: {line}"
     );
     // Run 3's scenario file, flown by `dock`, gives run 3's record.
     let (ok, toml_text, stderr) = host_sim(&[
