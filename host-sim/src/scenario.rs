@@ -1344,6 +1344,16 @@ impl ScenarioFile {
         if let Some(l) = self.turbulence.scale_length_m {
             plant_bounds::SCALE_LENGTH.check(l)?;
         }
+        // The outer law is the paper procedure's: the refuelling procedure flies its own
+        // target law, so PBVS (never the default) would be ignored; refused, not dropped.
+        let c = &self.controller.config;
+        if c.procedure == ibvs_core::Procedure::Refuelling && c.law == ibvs_core::OuterLaw::Pbvs {
+            return Err(ScenarioError::Conflict(
+                "controller.law = \"pbvs\" is flown by the paper's procedure only, and this \
+                 file flies the refuelling procedure (controller.procedure): set \
+                 controller.procedure = \"paper\" to fly PBVS, or remove the law",
+            ));
+        }
         if self.controller.camera_position_given
             && (self.camera.mount_error_m != [0.0; 3] || self.dispersion.mount_error_m.is_some())
         {
@@ -2192,6 +2202,24 @@ mod tests {
 
     /// Every refuelling preset flies both plant dispersions, exactly the exported ranges;
     /// `nominal-level2` and the paper presets fly the design's plant.
+    #[test]
+    fn a_law_the_refuelling_procedure_does_not_fly_is_refused() {
+        let e = ScenarioFile::parse("[controller]\nlaw = \"pbvs\"\n", "f")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("controller.law") && e.contains("paper"), "{e}");
+        let paper = "[controller]\nprocedure = \"paper\"\nlaw = \"pbvs\"\n";
+        assert_eq!(
+            ScenarioFile::parse(paper, "f")
+                .unwrap()
+                .controller_config()
+                .law,
+            OuterLaw::Pbvs
+        );
+        // The default law under the refuelling procedure is accepted (it is the default).
+        assert!(ScenarioFile::parse("[controller]\nlaw = \"ibvs\"\n", "f").is_ok());
+    }
+
     #[test]
     fn the_refuelling_presets_fly_the_plant_dispersions_and_the_others_do_not() {
         let receiver = ScenarioFile::parse(RECEIVER_PLANT_DISPERSION, "r").unwrap();
