@@ -297,6 +297,9 @@ pub struct RunInputs {
     /// The plant the run flew, which the controller's design does not know (all nominal
     /// unless the campaign disperses it).
     pub plant: PlantInputs,
+    /// The range to the drogue at which the tanker calls a breakaway, m (`None`: no call).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub abort_at_range_m: Option<f64>,
 }
 
 /// The true plant of one run: the receiver's factors and the world's physical parameters
@@ -374,6 +377,7 @@ impl RunInputs {
             airspeed_mps: f.flight.airspeed_mps,
             altitude_m: f.flight.altitude_m,
             plant: PlantInputs::of(f),
+            abort_at_range_m: f.abort.at_range_m,
         }
     }
 }
@@ -484,6 +488,10 @@ pub struct RunRecord {
     pub crossings: Vec<CrossingLine>,
     /// Every hazard, in order of onset.
     pub hazards: Vec<Hazard>,
+    /// When the tanker's breakaway call was made, s (`None`: none, or its range was never
+    /// reached).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub abort_called_s: Option<f64>,
 }
 
 /// The record of a finished run.
@@ -551,6 +559,7 @@ fn classify(index: u64, f: &ScenarioFile, run: &Run) -> RunRecord {
             })
             .collect(),
         hazards: v.hazards.clone(),
+        abort_called_s: run.abort_called_s,
     }
 }
 
@@ -628,6 +637,7 @@ pub fn run_one_on(base: &ScenarioFile, index: u64, computer: &CampaignComputer) 
             first_attempt_docked: false,
             crossings: Vec::new(),
             hazards: Vec::new(),
+            abort_called_s: None,
         },
     }
 }
@@ -943,6 +953,13 @@ pub struct CampaignSummary {
     /// breakaway (the coupling latches whatever the controller intends: a reader's figure, not
     /// a judgement).
     pub docked_while_backing_off: u64,
+    /// Runs in which the tanker called a breakaway (`[abort]`; 0 without the key).
+    pub aborts_called: u64,
+    /// Of those, the runs the referee found safe.
+    pub aborts_safe: u64,
+    /// Exact one-sided 95 % upper bound on the unsafe fraction of the called aborts (`null`
+    /// with no call).
+    pub aborts_unsafe_upper95: Option<f64>,
     /// Runs per outcome.
     pub outcomes: BTreeMap<String, u64>,
     /// Runs per failure cause (breakaway reason, kind of miss, timeout, error).
@@ -1248,6 +1265,11 @@ pub fn summarise(
     for h in hazards.values_mut() {
         h.runs_upper95 = upper95(h.runs, n);
     }
+    let called = || records.iter().filter(|r| r.abort_called_s.is_some());
+    let (aborts_called, aborts_safe) = (
+        called().count() as u64,
+        called().filter(|r| r.safe).count() as u64,
+    );
     let (cells, outside) = condition_table(records);
     let fraction = |k: u64| if n > 0 { k as f64 / n as f64 } else { 0.0 };
     CampaignSummary {
@@ -1271,6 +1293,10 @@ pub fn summarise(
         hazards,
         crossings,
         docked_while_backing_off: backing_off,
+        aborts_called,
+        aborts_safe,
+        aborts_unsafe_upper95: (aborts_called > 0)
+            .then(|| upper95(aborts_called - aborts_safe, aborts_called)),
         outcomes,
         failure_causes: causes,
         miss_m: Percentiles::of(records.iter().filter_map(|r| r.miss_m)),
@@ -1911,7 +1937,7 @@ pub fn one_line(s: &CampaignSummary) -> String {
         .map(|(k, h)| format!("{k} {}", h.runs))
         .collect();
     format!(
-        "{}: {} runs{}{}, success {} ({}, 95 % CI {}..{}), docked {}, unsafe {} (95 % upper bound {}){}, miss p50/p95/max {}",
+        "{}: {} runs{}{}, success {} ({}, 95 % CI {}..{}), docked {}, unsafe {} (95 % upper bound {}){}, miss p50/p95/max {}{}",
         s.scenario,
         s.runs,
         if s.first_run > 0 {
@@ -1938,6 +1964,14 @@ pub fn one_line(s: &CampaignSummary) -> String {
             "{:.3}/{:.3}/{:.3} m",
             m.p50, m.p95, m.max
         )),
+        if s.aborts_called > 0 {
+            format!(
+                ", tanker's breakaway calls {}, safe {}",
+                s.aborts_called, s.aborts_safe
+            )
+        } else {
+            String::new()
+        },
     )
 }
 

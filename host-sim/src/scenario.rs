@@ -405,7 +405,35 @@ pub struct DispersionSection {
     /// `[dispersion.navigation]`: the INS's grade.
     #[serde(skip_serializing_if = "NavigationDispersion::is_empty")]
     pub navigation: NavigationDispersion,
+    /// `[dispersion.abort]`: where the tanker's breakaway call comes.
+    #[serde(skip_serializing_if = "AbortDispersion::is_empty")]
+    pub abort: AbortDispersion,
 }
+
+/// `[abort]`: the tanker's breakaway call, which the receiver must fly whatever it was doing
+/// (the simulator requests the controller's `Abort`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AbortSection {
+    /// The call comes at the first step at which the true range to the drogue (its centre
+    /// minus the probe tip, tanker x) is at or below this, the controller engaged and the
+    /// coupling not latched, m, [`ABORT_RANGE_M`]; none by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub at_range_m: Option<f64>,
+}
+
+/// `[dispersion.abort]`: the range of `[abort] at_range_m`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AbortDispersion {
+    /// Range `[min, max]` of the call's range to the drogue, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub at_range_m: Option<[f64; 2]>,
+}
+
+/// Allowed `[abort] at_range_m`, m: above 0 (at the plane the coupling decides) and at most
+/// the start's farthest forward offset (`[initial]`'s 30 m).
+pub const ABORT_RANGE_M: (f64, f64) = (0.01, 30.0);
 
 /// `[dispersion.drogue]`: ranges `[min, max]` of `[drogue]`'s keys.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -497,8 +525,16 @@ empty_when_default!(
     TurbulenceDispersion,
     StrengthDispersion,
     CameraDispersion,
-    NavigationDispersion
+    NavigationDispersion,
+    AbortDispersion
 );
+
+impl AbortSection {
+    /// True when no call is made.
+    pub fn is_empty(&self) -> bool {
+        self.at_range_m.is_none()
+    }
+}
 
 impl DispersionSection {
     /// True when nothing is dispersed and the seed is the default (per run).
@@ -542,6 +578,9 @@ pub struct ScenarioFile {
     pub flight: FlightSection,
     /// Navigation.
     pub navigation: NavigationSection,
+    /// The tanker's breakaway call.
+    #[serde(skip_serializing_if = "AbortSection::is_empty")]
+    pub abort: AbortSection,
     /// Monte Carlo ranges (campaigns only).
     #[serde(skip_serializing_if = "DispersionSection::is_empty")]
     pub dispersion: DispersionSection,
@@ -615,6 +654,7 @@ impl Default for ScenarioFile {
                 grade: InsGrade::Tactical,
                 ins: InsGrade::Tactical.errors(),
             },
+            abort: AbortSection::default(),
             dispersion: DispersionSection::default(),
         }
     }
@@ -1075,13 +1115,23 @@ macro_rules! plant_dispersion {
     };
 }
 
+/// The tanker's breakaway call in every sortie of the `*-abort` presets, somewhere in the
+/// approach or the capture: from 2.5 m (inside the pre-contact station's depth less its
+/// tolerance, 3.0 - 0.3 m, so the approach has begun) to 5 cm before the drogue plane. A
+/// `[dispersion.abort]` table, to go after every flat `[dispersion]` key.
+macro_rules! abort_dispersion {
+    () => {
+        "[dispersion.abort]\nat_range_m = [0.05, 2.5]\n"
+    };
+}
+
 /// The RMS gust intensity range of `mil-level2`: MIL-F-8785C's at probability of
 /// exceedance 1e-2 at 3000 m ([`crate::world::turbulence::mil_f_8785c_sigma_mps`], 1.84 m/s)
 /// +/-20 %, m/s (tested against the table).
 pub const MIL_LEVEL2_SIGMA_RANGE_MPS: [f64; 2] = [1.47, 2.21];
 
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
-pub const PRESETS: [(&str, &str, &str); 13] = [
+pub const PRESETS: [(&str, &str, &str); 15] = [
     (
         "calm",
         "paper start, calm air, tanker wake, hose and LED camera, refuelling procedure (the default)",
@@ -1178,6 +1228,26 @@ pub const PRESETS: [(&str, &str, &str); 13] = [
             "[turbulence]\nsigma_mps = 1.84\n",
             refuelling_dispersion!("[1.47, 2.21]"),
             plant_dispersion!()
+        ),
+    ),
+    (
+        "level2-abort",
+        "level2 with the tanker's breakaway call in every sortie, 2.5 m to 5 cm from the drogue plane",
+        concat!(
+            "[turbulence]\npreset = \"level2\"\n",
+            refuelling_dispersion!("[0.56, 0.84]"),
+            plant_dispersion!(),
+            abort_dispersion!()
+        ),
+    ),
+    (
+        "mil-level2-abort",
+        "mil-level2 with the tanker's breakaway call in every sortie, 2.5 m to 5 cm from the drogue plane",
+        concat!(
+            "[turbulence]\nsigma_mps = 1.84\n",
+            refuelling_dispersion!("[1.47, 2.21]"),
+            plant_dispersion!(),
+            abort_dispersion!()
         ),
     ),
     (
@@ -1336,6 +1406,15 @@ impl ScenarioFile {
             range(info.receiver_key, factor, l.min, l.max, l.text)?;
         }
         self.validate_flight()?;
+        if let Some(r) = self.abort.at_range_m {
+            range(
+                "abort.at_range_m",
+                r,
+                ABORT_RANGE_M.0,
+                ABORT_RANGE_M.1,
+                "0.01..=30 m",
+            )?;
+        }
         self.navigation.ins.check()?;
         let d = &self.dispersion;
         for (bound, value, _) in plant_keys!(self, d) {
@@ -1510,6 +1589,15 @@ impl ScenarioFile {
         if let Some(r) = d.turbulence.scale_length_m {
             plant_bounds::SCALE_LENGTH.check_range(r)?;
         }
+        if let Some(r) = d.abort.at_range_m {
+            range_pair(
+                "dispersion.abort.at_range_m",
+                r,
+                ABORT_RANGE_M.0,
+                ABORT_RANGE_M.1,
+                "0.01..=30 m",
+            )?;
+        }
         if let Some(grades) = &d.navigation.grade {
             if grades.is_empty() {
                 return Err(ScenarioError::OutOfRange {
@@ -1610,6 +1698,9 @@ impl ScenarioFile {
         if let Some(r) = d.turbulence.scale_length_m {
             f.turbulence.scale_length_m = Some(uniform(salt_of(plant_bounds::SCALE_LENGTH.key), r));
         }
+        if let Some(r) = d.abort.at_range_m {
+            f.abort.at_range_m = Some(uniform(salt_of("abort.at_range_m"), r));
+        }
         if let Some(grades) = d.navigation.grade.as_deref().filter(|g| !g.is_empty()) {
             let grade = grades[stream(salt_of("navigation.grade")).random_range(0..grades.len())];
             // The grade's figures, at the file's latency (dispersed on its own, above).
@@ -1703,6 +1794,7 @@ impl ScenarioFile {
             receiver_plant: f.receiver.plant,
             camera_body_m: c.placement.position_body_m(),
             navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
+            abort_at_range_m: f.abort.at_range_m,
             tanker: crate::world::Tanker {
                 speed_mps: f.flight.airspeed_mps,
                 altitude_m: f.flight.altitude_m,
@@ -2202,6 +2294,53 @@ mod tests {
 
     /// Every refuelling preset flies both plant dispersions, exactly the exported ranges;
     /// `nominal-level2` and the paper presets fly the design's plant.
+    /// The abort presets are their air's preset plus the call, drawn in every run inside
+    /// its range, from its own stream (every other draw as the preset's); a bad range is
+    /// named.
+    #[test]
+    fn the_abort_presets_call_a_breakaway_in_every_run_and_nothing_else_changes() {
+        for (base, with) in [
+            ("level2", "level2-abort"),
+            ("mil-level2", "mil-level2-abort"),
+        ] {
+            let (b, a) = (
+                ScenarioFile::load(base).unwrap(),
+                ScenarioFile::load(with).unwrap(),
+            );
+            assert_eq!(a.dispersion.abort.at_range_m, Some([0.05, 2.5]), "{with}");
+            assert!(b.dispersion.abort.is_empty(), "{base}");
+            for i in [0, 5, 1_000_000] {
+                let (x, mut y) = (b.dispersed(i), a.dispersed(i));
+                let r = y.abort.at_range_m.expect("called");
+                assert!((0.05..=2.5).contains(&r), "{with} run {i}: {r}");
+                assert_eq!(y.scenario().abort_at_range_m, Some(r));
+                y.abort = AbortSection::default();
+                y.name = x.name.clone();
+                assert_eq!(x, y, "{with} run {i}: only the call differs");
+            }
+        }
+        for (text, key) in [
+            ("[abort]\nat_range_m = 0.0\n", "abort.at_range_m"),
+            ("[abort]\nat_range_m = nan\n", "abort.at_range_m"),
+            ("[abort]\nat_range_m = 31.0\n", "abort.at_range_m"),
+            (
+                "[dispersion.abort]\nat_range_m = [2.0, 1.0]\n",
+                "dispersion.abort.at_range_m",
+            ),
+            (
+                "[dispersion.abort]\nat_range_m = [0.0, 1.0]\n",
+                "dispersion.abort.at_range_m",
+            ),
+        ] {
+            let e = ScenarioFile::parse(text, "f").unwrap_err().to_string();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+        let f = ScenarioFile::parse("[abort]\nat_range_m = 1.5\n", "f").unwrap();
+        assert_eq!(f.scenario().abort_at_range_m, Some(1.5));
+        assert_eq!(ScenarioFile::parse(&f.to_toml(), "again").unwrap(), f);
+        assert_eq!(ScenarioFile::default().scenario().abort_at_range_m, None);
+    }
+
     #[test]
     fn a_law_the_refuelling_procedure_does_not_fly_is_refused() {
         let e = ScenarioFile::parse("[controller]\nlaw = \"pbvs\"\n", "f")
@@ -2231,6 +2370,8 @@ mod tests {
             "mil-level2",
             "wide-start",
             "envelope",
+            "level2-abort",
+            "mil-level2-abort",
         ];
         for (name, _, _) in PRESETS {
             let d = ScenarioFile::load(name).unwrap().dispersion;

@@ -129,6 +129,11 @@ pub struct Scenario {
     pub bow_wave_strength: f64,
     /// Navigation errors: `None` is perfect navigation.
     pub navigation: Option<InsErrors>,
+    /// The tanker's breakaway call: the simulator requests an abort (`ModeRequest::Abort`)
+    /// from the first step at which the true range (drogue centre minus probe tip, tanker x)
+    /// is at or below this, m, the controller engaged and the coupling not latched; `None`:
+    /// never. The call stands until the run ends.
+    pub abort_at_range_m: Option<f64>,
 }
 
 /// The camera model and its parameters.
@@ -172,6 +177,7 @@ impl Scenario {
             bow_wave: false,
             bow_wave_strength: 1.0,
             navigation: None,
+            abort_at_range_m: None,
         }
     }
 
@@ -298,6 +304,8 @@ pub struct Run {
     pub samples: Vec<Sample>,
     /// The trim the receiver started from.
     pub trim: Trim,
+    /// When the tanker's breakaway call ([`Scenario::abort_at_range_m`]) was made, s.
+    pub abort_called_s: Option<f64>,
 }
 
 /// Follows the controller's attempts through its outputs: the paper's single shot is attempt
@@ -611,6 +619,7 @@ pub fn run_observed(
     let mut attempts = AttemptLog::default();
     let mut latched = false;
     let mut breakaway_at: Option<f64> = None;
+    let mut abort_called_s: Option<f64> = None;
     let mut samples = Vec::with_capacity(steps);
     let mut reason = None;
     let mut prev_tip = tip(&x, 0.0);
@@ -633,11 +642,21 @@ pub fn run_observed(
         let engaged_before = samples
             .last()
             .is_some_and(|p: &Sample| p.output.mode != Mode::Standby);
+        if abort_called_s.is_none()
+            && engaged_before
+            && !latched
+            && s.abort_at_range_m
+                .is_some_and(|r| drogue_now.x - tip_now.x <= r)
+        {
+            abort_called_s = Some(t);
+        }
         let input = ControllerInput {
             measurement,
             nav: injector.nav(nav.sample(&s.tanker, &x, t)),
             probe_contact: latched,
-            request: if engaged_before || breakaway_at.is_some() || latched {
+            request: if abort_called_s.is_some() {
+                ModeRequest::Abort
+            } else if engaged_before || breakaway_at.is_some() || latched {
                 ModeRequest::None
             } else {
                 ModeRequest::Engage
@@ -738,6 +757,7 @@ pub fn run_observed(
         attempts: attempts.records,
         samples,
         trim,
+        abort_called_s,
     })
 }
 

@@ -497,3 +497,39 @@ fn a_fault_that_never_starts_leaves_the_run_unchanged() {
     assert_eq!(idle.run.samples, plain.samples);
     assert_eq!(idle.run.summary, plain.summary);
 }
+
+/// The tanker's breakaway call (`[abort] at_range_m`): made at the first step whose true range
+/// to the drogue is inside the given one, and flown at that very step (`Abort`), from the
+/// approach (2.0 m) and from the capture (0.5 m), in calm air. The referee judges where the
+/// breakaway goes, as for the faults (`known_gap`).
+#[test]
+fn the_tankers_breakaway_call_is_flown_at_once_from_the_approach_and_the_capture() {
+    for range_m in [2.0, 0.5] {
+        let mut f = ScenarioFile::load("calm").expect("preset");
+        f.abort.at_range_m = Some(range_m);
+        let flown = fly_file(&f, &[]);
+        let what = format!("the call at {range_m} m");
+        let called = flown.run.abort_called_s.expect("the call was made");
+        let s = &flown.run.samples;
+        let k = s.iter().position(|p| p.time_s == called).expect("a step");
+        assert!(
+            s[k].drogue_from_tip_m.x <= range_m && s[k - 1].drogue_from_tip_m.x > range_m,
+            "{what}: the first step inside it"
+        );
+        assert_eq!(breakaway_at(&flown.run), Some(called), "{what}");
+        if range_m > 1.0 {
+            assert_broke_away(&flown, "Abort", &what, &[]);
+        } else {
+            // Known gap: 0.5 m is inside the stopping distance at the contact speed (about
+            // 1.4 m from 1 m/s, `docs/faults.md`): the breakaway cannot stop the receiver, and
+            // the probe enters the coupling (measured at 1.06 m/s, 0.015 m off), a docking for
+            // the referee, made against the call.
+            let s = &flown.run.summary;
+            assert_eq!(s.outcome, Outcome::Docked, "{what}: {s:?}");
+            assert_eq!(s.breakaway_reason.as_deref(), Some("Abort"), "{what}");
+        }
+    }
+    // Without the key no call is made.
+    let flown = fly(&[]);
+    assert_eq!(flown.run.abort_called_s, None);
+}
