@@ -464,6 +464,8 @@ config_rules! {
     positive refuelling.late_gate_radius_m;
     positive refuelling.late_gate_final_radius_m;
     positive refuelling.late_gate_taper_m;
+    positive refuelling.late_gate_depth_m;
+    non_negative refuelling.late_gate_min_depth_m;
     positive refuelling.gate_max_horizon_s;
     positive refuelling.capture_timeout_s;
     positive refuelling.capture_min_time_to_go_s;
@@ -482,6 +484,14 @@ config_rules! {
     non_negative refuelling.feedforward_gain;
     non_negative refuelling.gate_sigmas;
     non_negative refuelling.missed_down_mps;
+    non_negative refuelling.forward_lag_s;
+    holds refuelling.forward_lag_s if refuelling.forward_lag_s <= 10.0;
+    non_negative refuelling.stop_clearance_m;
+    non_negative refuelling.escape_speed_mps;
+    positive refuelling.escape_accel_mps2;
+    holds refuelling.escape_speed_mps
+        if refuelling.escape_speed_mps <= velocity_limits.max_lateral_mps
+            && refuelling.escape_speed_mps <= velocity_limits.max_vertical_mps;
     holds refuelling.feedforward_lead_s if refuelling.feedforward_lead_s <= 5.0;
     non_negative estimator.drogue_swing_period_s;
     positive estimator.drogue_accel_time_constant_s;
@@ -505,8 +515,17 @@ config_rules! {
     holds refuelling.late_gate_final_radius_m
         if refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m;
     holds refuelling.commit_depth_m if refuelling.commit_depth_m < refuelling.station_depth_m;
+    // The gate lies where a no-go still stops short of the plane, at either closing speed:
+    // inside the station's overrun limit (before any approach is cleared) it would be
+    // passed unawares.
     holds refuelling.station_overrun_m
-        if refuelling.station_depth_m - refuelling.station_overrun_m > refuelling.commit_depth_m;
+        if refuelling.station_depth_m - refuelling.station_overrun_m
+            > crate::procedure::commit_depth(refuelling.contact_speed_mps, refuelling)
+            && refuelling.station_depth_m - refuelling.station_overrun_m
+                > crate::procedure::commit_depth(
+                    refuelling.rough_air_contact_speed_mps,
+                    refuelling,
+                );
     holds refuelling.station_overrun_m
         if refuelling.station_overrun_m > refuelling.station_depth_tol_m;
     holds refuelling.max_attempts if refuelling.max_attempts >= 1;

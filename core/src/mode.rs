@@ -40,13 +40,13 @@
 //! | pre-contact | estimated depth < `station_depth_m - station_overrun_m` | Breakaway(StationOverrun) |
 //! | pre-contact | stable (estimate inside the station limits) on `station_dwell_s` worth of consecutive valid frames (lost frames between them neither count nor restart the dwell), and on a valid frame the drogue itself within `station_clear_offset_m` of the tip | Approach |
 //! | approach | estimated radial offset > `abort_offset_m` | MissedApproach(OffsetTooLarge), or Breakaway(AttemptsExhausted) on the last attempt |
-//! | approach | estimated depth <= `commit_depth_m`, predicted miss > `gate_radius_m` | MissedApproach(PredictedMiss), or Breakaway(AttemptsExhausted) on the last attempt |
-//! | approach | estimated depth <= `commit_depth_m` | Terminal (capture) |
+//! | approach | estimated depth <= the commit depth (`procedure::commit_depth`: where a no-go still stops short of the plane, at least `commit_depth_m`), predicted miss > `gate_radius_m` | MissedApproach(PredictedMiss), or Breakaway(AttemptsExhausted) on the last attempt |
+//! | approach | estimated depth <= the commit depth | Terminal (capture) |
 //! | terminal | probe contact | Docked |
 //! | terminal | estimated depth < `-overshoot_m` | MissedApproach(PassedDroguePlane), or Breakaway(AttemptsExhausted) |
 //! | terminal | `capture_timeout_s` elapsed | MissedApproach(CaptureTimeout), or Breakaway(AttemptsExhausted) |
-//! | terminal | valid measurement and predicted miss > the late gate's radius (`late_gate_final_radius_m` at the plane, rising over `late_gate_taper_m` of depth to `late_gate_radius_m`) | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
-//! | terminal | valid measurement and estimated closing speed < `capture_min_closing_mps` | MissedApproach(ClosingTooSlow), or Breakaway(AttemptsExhausted) |
+//! | terminal | valid measurement, estimated depth <= `late_gate_depth_m` and predicted miss > the late gate's radius (`late_gate_final_radius_m` at the plane, rising over `late_gate_taper_m` of depth to `late_gate_radius_m`) | MissedApproach(LateNoGo), or Breakaway(AttemptsExhausted) |
+//! | terminal | valid measurement, estimated depth <= `late_gate_depth_m` and estimated closing speed < `capture_min_closing_mps` | MissedApproach(ClosingTooSlow), or Breakaway(AttemptsExhausted) |
 //! | missed approach | `missed_clear_s` elapsed, valid measurement, estimated depth within `station_depth_tol_m` of the station | PreContact (next attempt) |
 //! | docked | probe contact lost | Breakaway(ContactLost) |
 //!
@@ -279,6 +279,9 @@ pub struct RefuelInputs {
     /// The estimated closing speed on the drogue: the probe tip's forward velocity (from
     /// navigation) minus the drogue's (estimated), both relative to the tanker, m/s.
     pub closing_mps: f32,
+    /// The go/no-go gate's depth for the approach being flown
+    /// ([`crate::procedure::commit_depth`] at its closing speed), m.
+    pub commit_depth_m: f32,
 }
 
 /// State of the blind phase.
@@ -813,7 +816,7 @@ impl ModeMachine {
                     self.break_away(BreakawayReason::MeasurementLost);
                 } else if sq(e.offset_m) > rl.abort_offset_sq {
                     self.no_go_to(NoGoReason::OffsetTooLarge, rc);
-                } else if e.depth_m <= rc.commit_depth_m {
+                } else if e.depth_m <= inp.refuel.commit_depth_m {
                     if inp.refuel.predicted_miss_m > rc.gate_radius_m {
                         self.no_go_to(NoGoReason::PredictedMiss, rc);
                     } else {
@@ -829,10 +832,16 @@ impl ModeMachine {
                 } else if self.mode_steps > rl.capture_timeout_steps {
                     self.no_go_to(NoGoReason::CaptureTimeout, rc);
                 } else if valid
+                    && e.depth_m <= rc.late_gate_depth_m
+                    && e.depth_m >= rc.late_gate_min_depth_m
                     && inp.refuel.predicted_miss_m > rl.late_gate_radius_m(rc, e.depth_m)
                 {
                     self.no_go_to(NoGoReason::LateNoGo, rc);
-                } else if valid && inp.refuel.closing_mps < rc.capture_min_closing_mps {
+                } else if valid
+                    && e.depth_m <= rc.late_gate_depth_m
+                    && e.depth_m >= rc.late_gate_min_depth_m
+                    && inp.refuel.closing_mps < rc.capture_min_closing_mps
+                {
                     self.no_go_to(NoGoReason::ClosingTooSlow, rc);
                 }
             }
@@ -1411,6 +1420,7 @@ mod tests {
                 drogue_speed_rms_mps: 0.0,
                 predicted_miss_m,
                 closing_mps: 1.0,
+                commit_depth_m: RefuellingConfig::default().commit_depth_m,
             },
             ..inputs()
         }
@@ -1544,7 +1554,7 @@ mod tests {
         let (mut m, rc, lim) = refuelling_capture();
         let cfg = ModeConfig::default();
         let closing = |v: f32, valid: bool| {
-            let mut inp = refuel_inputs(0.0, 0.5, 0.0);
+            let mut inp = refuel_inputs(0.0, rc.late_gate_min_depth_m, 0.0);
             inp.refuel.closing_mps = v;
             if !valid {
                 inp.target = None;
@@ -1622,8 +1632,13 @@ mod tests {
             run(&mut m, &rc, &lim, beyond),
             (Mode::MissedApproach, Some(NoGoReason::PredictedMiss))
         );
-        // In the capture, on the plane: the late gate's radius is the final one exactly.
+        // In the capture, on the plane (the late gate judging to the plane): the late gate's
+        // radius is the final one exactly.
         let (mut m, rc, lim) = refuelling_capture();
+        let rc = RefuellingConfig {
+            late_gate_min_depth_m: 0.0,
+            ..rc
+        };
         let on = refuel_inputs(0.0, 0.0, rc.late_gate_final_radius_m);
         assert_eq!(run(&mut m, &rc, &lim, on), (Mode::Terminal, None));
         let beyond = refuel_inputs(0.0, 0.0, above(rc.late_gate_final_radius_m));
@@ -1742,8 +1757,13 @@ mod tests {
 
     #[test]
     fn a_predicted_miss_the_late_gate_passes_far_out_is_a_late_no_go_close_in() {
-        // Between the final and the late radius: a go at the taper depth, a no-go close in.
+        // Between the final and the late radius: a go at the taper depth, a no-go close in
+        // (the late gate judging to the plane).
         let (mut m, rc, lim) = refuelling_capture();
+        let rc = RefuellingConfig {
+            late_gate_min_depth_m: 0.0,
+            ..rc
+        };
         let cfg = ModeConfig::default();
         let p = 0.5 * (rc.late_gate_radius_m + rc.late_gate_final_radius_m) + 0.01;
         m.advance(
@@ -1775,5 +1795,33 @@ mod tests {
         };
         m.advance(&blind, &cfg, &rc, TS, &lim);
         assert_eq!(m.mode(), Mode::Terminal);
+    }
+
+    #[test]
+    fn the_capture_turns_away_only_inside_its_late_gates_window() {
+        // A predicted miss far beyond any radius, on valid frames, at depths just outside,
+        // on and inside the window's edges: judged only from `late_gate_depth_m` down to
+        // `late_gate_min_depth_m`, both inclusive; closer in the capture goes on.
+        let rc = RefuellingConfig::default();
+        let cfg = ModeConfig::default();
+        for (depth, turns) in [
+            (above(rc.late_gate_depth_m), false),
+            (rc.late_gate_depth_m, true),
+            (rc.late_gate_min_depth_m, true),
+            (
+                f32::from_bits(rc.late_gate_min_depth_m.to_bits() - 1),
+                false,
+            ),
+            (0.0, false),
+        ] {
+            let (mut m, rc, lim) = refuelling_capture();
+            m.advance(&refuel_inputs(0.0, depth, 10.0), &cfg, &rc, TS, &lim);
+            let want = if turns {
+                Mode::MissedApproach
+            } else {
+                Mode::Terminal
+            };
+            assert_eq!(m.mode(), want, "at {depth} m");
+        }
     }
 }

@@ -155,16 +155,47 @@ pub struct RefuellingConfig {
     /// MIL-F-8785C's 10⁻² air at 3,000 m (1.47..2.21 m/s) at 0.26..0.39 m/s.
     pub rough_air_drogue_speed_mps: f32,
     /// Closing speed of the contact approach and the capture in rough air, m/s. Default
-    /// 1.3 m/s, inside the 0.5..2.6 m/s band: in MIL-F-8785C's 10⁻² air the drogue moves
-    /// less in the shorter capture (300 sorties: 76.7 % docked at 1.0 m/s, 80.3 % at 1.3 m/s,
-    /// none unsafe); in calm and level II air the slower 1 m/s leaves the capture more time
-    /// to steer (level II miss p95 0.172 m at 1.0 m/s, 0.186 m at 1.3 m/s).
+    /// 1.0 m/s, the calm air's. It was 1.3 m/s (in MIL-F-8785C's 10⁻² air the drogue moves
+    /// less in the shorter capture: 300 sorties, 76.7 % docked at 1.0 m/s, 80.3 % at
+    /// 1.3 m/s); but the receiver must be able to stop short of the plane at the gate
+    /// ([`commit_depth`]), and from 1.3 m/s it needs 2.35 m against 1.66 m from 1.0 m/s:
+    /// the gate would then sit inside the station's overrun limit (`station_depth_m -
+    /// station_overrun_m`, 2 m), where no approach has been cleared yet.
     pub rough_air_contact_speed_mps: f32,
     /// In the contact approach, a drogue offset beyond this (radial) is a no-go at once, m.
     pub abort_offset_m: f32,
-    /// Depth at which the receiver commits: the go/no-go gate, and the start of the capture
-    /// phase (the tip camera goes blind inside about 0.7 m), m.
+    /// The least depth at which the receiver commits: the go/no-go gate, and the start of
+    /// the capture phase (the tip camera goes blind inside about 0.7 m), m. The gate is
+    /// taken at [`commit_depth`]: this, or where the receiver can still stop short of the
+    /// drogue plane at the approach's closing speed, whichever is deeper.
     pub commit_depth_m: f32,
+    /// How late the probe tip's forward velocity follows a deceleration command, s: the
+    /// stopping distance's first term ([`stopping_distance_m`]). Default 1.16 s, measured on
+    /// the design plant in calm air: a no-go at 3.9 m from 1.06 m/s, the command slewed down
+    /// at `missed_accel_mps2` (1 m/s²), stopped the tip 1.79 m and 2.38 s later
+    /// (`(1.79 − 1.06² / 2) / 1.06`): the throttle's idle and the engine's spool-down, not
+    /// the slew, take most of it.
+    pub forward_lag_s: f32,
+    /// The receiver must be able to stop this far short of the drogue plane when it turns
+    /// away at the gate, m: the estimated depth's error at 2 m (a few centimetres) and the
+    /// slower deceleration of a heavier or draggier airframe than the design's (mass up to
+    /// 1.3 times: the stop grows by up to about 0.25 m at 1 m/s). Default 0.3 m.
+    pub stop_clearance_m: f32,
+    /// After the commit the capture may only go on or turn away sideways and down: a no-go
+    /// or a breakaway from the capture flies this speed away from the drogue (its offset at
+    /// that moment, never up towards the hose) while it clears and until the plane, m/s.
+    /// Default 0: straight back and down. Measured on tuning runs 0..1,999 (`level2`,
+    /// `mil-level2`; successes / unsafe runs / basket strikes / upsets): at 0,
+    /// 1,647 / 65 / 17 / 48 and 1,199 / 420 / 116 / 297; at 0.8 m/s, 1,635 / 71 / 9 / 63
+    /// and 1,123 / 485 / 83 / 410: the turn halves the strikes but this inner loop,
+    /// rolling and pushing over at once in strong air, loses more to upsets (load factor
+    /// below zero g) than the turn saves.
+    pub escape_speed_mps: f32,
+    /// Largest change of the right command while turning away from the capture (the down
+    /// command slews at the mode's own rate), m/s²: the capture may be steering towards the drogue at up to `max_correction_mps`,
+    /// and at the missed approach's `missed_accel_mps2` the reversal alone took most of
+    /// the second left to the plane (measured). Default 4 m/s².
+    pub escape_accel_mps2: f32,
     /// Go: the predicted radial offset at the drogue plane plus `gate_sigmas` standard
     /// deviations is at most this, m.
     pub gate_radius_m: f32,
@@ -190,6 +221,22 @@ pub struct RefuellingConfig {
     /// of that air crossed 0.300 m off, predicted 0.274 m 4 cm before the plane (the
     /// prediction's error plus the depth's); 0.25 m leaves 5 cm for them.
     pub late_gate_final_radius_m: f32,
+    /// Depth inside which the capture judges its late no-go and its closing speed, m:
+    /// farther out the capture still has more than its lag to correct, and the gate's
+    /// half-second prediction is not the miss at the plane. Default 1.3 m: chosen with
+    /// `late_gate_min_depth_m` on tuning runs 0..1,999 of `level2` (successes / basket
+    /// strikes: the whole capture from 1.96 m to the plane, 1,508 / 13; 0..1.0 m, 1,656 /
+    /// 53; 0.5..1.0 m, 1,658 / 49; 0.6..1.3 m, 1,646 / 19; 0.8..1.5 m, 1,636 / 16;
+    /// 0.4..1.96 m, 1,576 / 14).
+    pub late_gate_depth_m: f32,
+    /// Depth inside which the capture no longer turns away, m: a turn away needs time to
+    /// act (the tip's velocity follows a command about 0.6 s late, 0.6 m at the contact
+    /// speed), and closer in it only spoils a contact the capture may still make
+    /// (measured: late no-gos inside 1 m crossed the plane 0.30 to 0.35 m off, between the
+    /// capture radius and the canopy's, still closing at the contact speed). Default 0.6 m
+    /// (with `late_gate_depth_m`): the late gate's taper below
+    /// `late_gate_taper_m` then no longer acts.
+    pub late_gate_min_depth_m: f32,
     /// Depth inside which the late gate's radius tapers to `late_gate_final_radius_m`, m:
     /// about the inner loops' lateral lag (0.5 s) at the contact speed.
     pub late_gate_taper_m: f32,
@@ -268,13 +315,19 @@ impl Default for RefuellingConfig {
             feedforward_gain: 1.0,
             contact_speed_mps: 1.0,
             rough_air_drogue_speed_mps: 0.2,
-            rough_air_contact_speed_mps: 1.3,
+            rough_air_contact_speed_mps: 1.0,
             abort_offset_m: 0.6,
             commit_depth_m: 1.0,
+            forward_lag_s: 1.16,
+            stop_clearance_m: 0.3,
+            escape_speed_mps: 0.0,
+            escape_accel_mps2: 4.0,
             gate_radius_m: 0.45,
             gate_sigmas: 1.0,
             late_gate_radius_m: 0.40,
             late_gate_final_radius_m: 0.25,
+            late_gate_depth_m: 1.3,
+            late_gate_min_depth_m: 0.6,
             late_gate_taper_m: 0.5,
             gate_max_horizon_s: 0.5,
             capture_timeout_s: 3.0,
@@ -312,6 +365,45 @@ pub fn contact_speed(drogue_rms_mps: f32, cfg: &RefuellingConfig) -> f32 {
     }
 }
 
+/// The distance the probe tip runs on towards the drogue after a no-go from the closing
+/// speed `closing_mps`: the forward loop's lag at that speed, then the missed approach's
+/// deceleration (`closing_mps · forward_lag_s + closing_mps² / (2 · missed_accel_mps2)`), m.
+#[inline(always)]
+pub fn stopping_distance_m(closing_mps: f32, cfg: &RefuellingConfig) -> f32 {
+    closing_mps * cfg.forward_lag_s + closing_mps * closing_mps / (2.0 * cfg.missed_accel_mps2)
+}
+
+/// The depth of the go/no-go gate for an approach closing at `contact_mps`: where a no-go
+/// still stops `stop_clearance_m` short of the drogue plane ([`stopping_distance_m`]), or
+/// `commit_depth_m` if that is deeper, m. Inside it the capture may only go on or turn
+/// away sideways and down ([`escape_velocity`]).
+#[inline(always)]
+pub fn commit_depth(contact_mps: f32, cfg: &RefuellingConfig) -> f32 {
+    max_to(
+        cfg.commit_depth_m,
+        stopping_distance_m(contact_mps, cfg) + cfg.stop_clearance_m,
+    )
+}
+
+/// The sideways-and-down velocity `[right, down]` of a receiver turning away from the
+/// capture with the drogue at `offset_m` (`[right, down]` from the probe tip): directly
+/// away from the drogue at `escape_speed_mps`, but never up (the hose trails up and forward
+/// from the drogue): with the drogue below the tip it turns away sideways only, and with
+/// the drogue straight below (within 5 cm sideways) to the right, m/s.
+pub fn escape_velocity(offset_m: [f32; 2], cfg: &RefuellingConfig) -> [f32; 2] {
+    let [right, down] = offset_m;
+    // Away from the drogue: the negative of its offset, the upward part dropped.
+    let away = [-right, max_to(-down, 0.0)];
+    let norm = libm::sqrtf(away[0] * away[0] + away[1] * away[1]);
+    if norm < 0.05 {
+        // The drogue (nearly) straight ahead or below: sideways, away from its side.
+        let side = if right > 0.0 { -1.0 } else { 1.0 };
+        return [side * cfg.escape_speed_mps, 0.0];
+    }
+    let k = cfg.escape_speed_mps / norm;
+    [away[0] * k, away[1] * k]
+}
+
 /// What the forward axis does in a mode of the procedure.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Forward {
@@ -322,8 +414,16 @@ pub enum Forward {
     /// Close at the contact speed and steer the offset out by contact: the lateral and
     /// vertical gain rises to `1 / time to go` (at most `1 / capture_min_time_to_go_s`).
     Capture,
-    /// Back off (and descend) at the missed approach's speeds.
-    Clear,
+    /// Back off at the missed approach's speed, straight back along the approach line (no
+    /// lateral chase of the drogue), adding the escape velocity `[right, down]` (m/s; zero
+    /// after a no-go outside the commit depth, and once past the plane), descending at
+    /// `missed_down_mps` if `descend` (the clearing time).
+    Clear {
+        /// The escape velocity `[right, down]`, m/s.
+        escape: [f32; 2],
+        /// Descend at `missed_down_mps`.
+        descend: bool,
+    },
 }
 
 /// The desired velocity of the probe tip relative to the tanker (`re` axes) for the
@@ -361,7 +461,7 @@ pub fn desired_velocity(
     // MIL-F-8785C 10⁻² air; `docs/scenarios.md`).
     let drogue_fwd = match fwd {
         Forward::Contact | Forward::Capture => e.drogue_velocity_mps[2],
-        Forward::Station | Forward::Clear => 0.0,
+        Forward::Station | Forward::Clear { .. } => 0.0,
     };
     let (fwd_mps, down_bias) = match fwd {
         Forward::Station => {
@@ -369,26 +469,32 @@ pub fn desired_velocity(
             (clamp_sym(v, cfg.station_max_speed_mps), 0.0)
         }
         Forward::Contact | Forward::Capture => (contact_mps, 0.0),
-        Forward::Clear => (-cfg.missed_aft_mps, cfg.missed_down_mps),
+        Forward::Clear { descend, .. } => (
+            -cfg.missed_aft_mps,
+            if descend { cfg.missed_down_mps } else { 0.0 },
+        ),
     };
-    // Holding the station or clearing, the receiver follows the drogue's mean position (its
-    // swing averaged out) without its velocity: chasing the swing of a drogue in strong air
-    // drove the elevator into its stops and the receiver out of control (measured, the
-    // strongest campaign); the station adds its integral (the navigation's velocity bias).
-    // Closing on it, it follows the drogue itself.
-    let (offset, ff) = match fwd {
-        Forward::Station => (e.mean_offset_m, 1.0),
-        Forward::Clear => (e.mean_offset_m, 0.0),
-        Forward::Contact | Forward::Capture => (e.offset_m, cfg.feedforward_gain),
+    // Holding the station, the receiver follows the drogue's mean position (its swing
+    // averaged out) without its velocity: chasing the swing of a drogue in strong air drove
+    // the elevator into its stops and the receiver out of control (measured, the strongest
+    // campaign); the station adds its integral (the navigation's velocity bias). Closing on
+    // it, it follows the drogue itself. Clearing, it follows nothing: it backs straight out
+    // (steering towards the drogue's mean position on an estimate coasted out of view put
+    // the probe through the basket while backing off, measured), turning away only by the
+    // escape velocity.
+    let (offset, ff, k, escape) = match fwd {
+        Forward::Station => (e.mean_offset_m, 1.0, k, [0.0; 2]),
+        Forward::Clear { escape, .. } => ([0.0; 2], 0.0, 0.0, escape),
+        Forward::Contact | Forward::Capture => (e.offset_m, cfg.feedforward_gain, k, [0.0; 2]),
     };
     let c = cfg.max_correction_mps;
     VelocityRe {
         x_right_mps: clamp_sym(
-            ff * feedforward_mps[0] + clamp_sym(k * offset[0], c),
+            ff * feedforward_mps[0] + clamp_sym(k * offset[0], c) + escape[0],
             lim.max_lateral_mps,
         ),
         y_down_mps: clamp_sym(
-            ff * feedforward_mps[1] + clamp_sym(k * offset[1], c) + down_bias,
+            ff * feedforward_mps[1] + clamp_sym(k * offset[1], c) + escape[1] + down_bias,
             lim.max_vertical_mps,
         ),
         z_fwd_mps: min_to(
@@ -424,7 +530,14 @@ mod tests {
         let station = cfg.station_gain_per_s * (e.depth_m - cfg.station_depth_m);
         assert!((fwd(Forward::Station) - station).abs() < 1e-6);
         // Clearing: the back-off alone.
-        assert!((fwd(Forward::Clear) + cfg.missed_aft_mps).abs() < 1e-6);
+        assert!(
+            (fwd(Forward::Clear {
+                escape: [0.0; 2],
+                descend: true,
+            }) + cfg.missed_aft_mps)
+                .abs()
+                < 1e-6
+        );
         // Closing on it: the drogue's forward velocity is added to the contact speed.
         for f in [Forward::Contact, Forward::Capture] {
             assert!((fwd(f) - (1.0 + 0.3)).abs() < 1e-6);

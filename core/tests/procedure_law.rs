@@ -19,7 +19,7 @@ use ibvs_core::ControllerConfig;
 use ibvs_core::estimator::DrogueEstimate;
 use ibvs_core::frames::VelocityRe;
 use ibvs_core::outer::VelocityLimits;
-use ibvs_core::procedure::{Forward, RefuellingConfig, desired_velocity};
+use ibvs_core::procedure::{self, Forward, RefuellingConfig, desired_velocity};
 
 fn limits() -> VelocityLimits {
     ControllerConfig::default().velocity_limits
@@ -137,13 +137,59 @@ fn the_capture_gain_rises_to_one_over_the_time_to_go_within_its_floor() {
 }
 
 #[test]
-fn the_missed_approach_backs_off_and_descends_on_the_mean_offset() {
+fn the_missed_approach_backs_straight_out_and_descends_whatever_the_drogue_does() {
     let (rc, lim) = (RefuellingConfig::default(), limits());
     // 1 m/s aft relative to the tanker (the drogue's 0.2 m/s forward left out); 0.5 m/s
-    // down added to the mean offset's 0.5 * 0.4 = 0.2 down; no feed-forward.
+    // down; neither the mean offset nor the feed-forward steers it: no chase of the drogue.
     let e = estimate([1.0, 1.0], [-0.2, 0.4], 0.2, 2.0);
-    let v = desired_velocity(&e, [0.3, 0.3], Forward::Clear, 1.0, &rc, &lim);
-    assert_velocity(v, [-0.1, 0.7, -1.0], "clear");
+    let clear = |escape, descend| Forward::Clear { escape, descend };
+    let v = desired_velocity(&e, [0.3, 0.3], clear([0.0; 2], true), 1.0, &rc, &lim);
+    assert_velocity(v, [0.0, 0.5, -1.0], "clear");
+    // After the clearing time, still inside the plane's margin: straight back, level.
+    let v = desired_velocity(&e, [0.3, 0.3], clear([0.0; 2], false), 1.0, &rc, &lim);
+    assert_velocity(v, [0.0, 0.0, -1.0], "clear, level");
+    // Turning away from the capture: the escape velocity is added as it is.
+    let v = desired_velocity(&e, [0.3, 0.3], clear([-0.6, 0.2], true), 1.0, &rc, &lim);
+    assert_velocity(v, [-0.6, 0.7, -1.0], "clear with an escape");
+}
+
+#[test]
+fn the_gate_lies_where_a_no_go_still_stops_short_of_the_plane() {
+    let rc = RefuellingConfig::default();
+    // From 1 m/s: 1 m/s x 1.16 s of lag, then 1 m/s / (2 x 1 m/s^2): 1.66 m; 0.3 m clear.
+    let d = procedure::stopping_distance_m(1.0, &rc);
+    assert!((d - 1.66).abs() < 1e-5, "{d}");
+    assert!((procedure::commit_depth(1.0, &rc) - 1.96).abs() < 1e-5);
+    // Slowly, the configured least depth governs.
+    let slow = procedure::commit_depth(0.1, &rc);
+    assert!((slow - rc.commit_depth_m).abs() < 1e-6, "{slow}");
+    // A faster approach commits farther out: quadratically.
+    assert!(procedure::commit_depth(1.3, &rc) > 2.3);
+}
+
+#[test]
+fn the_escape_turns_away_from_the_drogue_and_never_up() {
+    let rc = RefuellingConfig {
+        escape_speed_mps: 1.0,
+        ..RefuellingConfig::default()
+    };
+    let esc = |r, d| procedure::escape_velocity([r, d], &rc);
+    let close = |v: [f32; 2], w: [f32; 2]| (v[0] - w[0]).abs() < 1e-5 && (v[1] - w[1]).abs() < 1e-5;
+    // Drogue up and to the right: away, left and down, at the escape speed.
+    let s = core::f32::consts::FRAC_1_SQRT_2;
+    assert!(close(esc(0.2, -0.2), [-s, s]), "{:?}", esc(0.2, -0.2));
+    // Drogue below and to the left: right only (never up towards the hose).
+    assert!(close(esc(-0.2, 0.3), [1.0, 0.0]), "{:?}", esc(-0.2, 0.3));
+    // Drogue straight below: sideways, to the right; straight ahead: the same.
+    assert!(close(esc(0.0, 0.3), [1.0, 0.0]));
+    assert!(close(esc(0.0, 0.0), [1.0, 0.0]));
+    // Drogue straight above: down.
+    assert!(close(esc(0.0, -0.3), [0.0, 1.0]));
+    // Off by default: straight back.
+    assert_eq!(
+        procedure::escape_velocity([0.2, -0.2], &RefuellingConfig::default()),
+        [0.0; 2]
+    );
 }
 
 #[test]
@@ -163,6 +209,10 @@ fn every_axis_is_saturated_to_the_velocity_limits() {
         missed_aft_mps: 3.0,
         ..rc
     };
-    let v = desired_velocity(&e, [0.0; 2], Forward::Clear, 1.0, &fast, &lim);
+    let clear = Forward::Clear {
+        escape: [0.0; 2],
+        descend: true,
+    };
+    let v = desired_velocity(&e, [0.0; 2], clear, 1.0, &fast, &lim);
     assert_velocity(v, [0.0, 0.5, -2.0], "clear, saturated aft");
 }
