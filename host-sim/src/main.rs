@@ -3,7 +3,7 @@
 //! ```text
 //! host-sim trim      [--speed-mps V] [--altitude-m H] [--xcg X] [--json]
 //! host-sim gains     [--json] [--write-core PATH]
-//! host-sim margins   [--paper] [--design-latency D]
+//! host-sim margins   [--paper] [--design-latency D] [--by-node]
 //! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
 //!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
 //!                    [--json] [--out DIR] [--no-files] [--pil [--firmware ELF]]
@@ -98,6 +98,9 @@ enum Command {
         /// configuration's, 1).
         #[arg(long, value_parser = clap::value_parser!(u8).range(0..=4))]
         design_latency: Option<u8>,
+        /// Print each node's worst figures (over the cgs and latencies) instead of every point.
+        #[arg(long)]
+        by_node: bool,
     },
     /// Fly one docking. Options given here override the scenario's values.
     Dock {
@@ -321,7 +324,8 @@ fn run(cli: Cli) -> Result<(), AnyError> {
         Command::Margins {
             paper,
             design_latency,
-        } => margins(paper, design_latency),
+            by_node,
+        } => margins(paper, design_latency, by_node),
         Command::Dock {
             scenario,
             controller,
@@ -578,7 +582,7 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
     Ok(())
 }
 
-fn margins(paper: bool, design_latency: Option<u8>) -> Result<(), AnyError> {
+fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(), AnyError> {
     let mut cfg = if paper {
         ControllerConfig::paper()
     } else {
@@ -588,7 +592,11 @@ fn margins(paper: bool, design_latency: Option<u8>) -> Result<(), AnyError> {
         cfg.nav_latency_steps = d;
     }
     let grid = synthesis::margins::grid(&cfg)?;
-    print!("{}", synthesis::margins::table(&grid));
+    if by_node {
+        print!("{}", synthesis::margins::node_table(&grid));
+    } else {
+        print!("{}", synthesis::margins::table(&grid));
+    }
     Ok(())
 }
 

@@ -6,8 +6,10 @@
 
 use std::collections::VecDeque;
 
+use host_sim::synthesis::linalg::spectral_radius;
 use host_sim::synthesis::margins::{
-    FlownController, FlownLoop, LoopMatrices, TruePlant, node_design,
+    ALPHA_45_DEG, FIGURES, FlownController, FlownLoop, LoopMatrices, TruePlant, grid, margins_of,
+    node_design, node_worst,
 };
 use ibvs_core::measurement::CameraMeasurement;
 use ibvs_core::nav::{FlightCondition, LatNav, LonNav, NavSample};
@@ -199,6 +201,119 @@ fn the_analysed_loop_is_the_flown_loop() {
                 worst > 10.0 * AGREEMENT,
                 "a mis-wired loop agrees: {worst:.2e}"
             );
+        }
+    }
+}
+
+/// Each schedule node's smallest disk margin `alpha` over true cg 0.30, 0.35, 0.40 and true
+/// navigation latency 0, 1, 2 periods, per figure (`FIGURES`: elevator, throttle, aileron,
+/// rudder loop at a time; the longitudinal and lateral channels' `mu`; the four inputs'
+/// `sigma_max` bound), of the refuelling procedure's controller as configured by default
+/// (predictor for 1 period): docs/margins.md's table, rounded down to 0.001. Nodes in the
+/// schedule's order (`[altitude][speed]`, speed fastest). 45 deg needs 0.828.
+const DOCUMENTED_WORST: [[f64; 7]; 16] = [
+    // 100 m/s, 500 m
+    [0.442, 0.618, 0.594, 1.264, 0.442, 0.555, 0.440],
+    // 120 m/s, 500 m
+    [0.382, 0.618, 0.615, 1.116, 0.382, 0.567, 0.381],
+    // 145 m/s, 500 m
+    [0.320, 0.619, 0.624, 0.960, 0.320, 0.564, 0.317],
+    // 170 m/s, 500 m
+    [0.266, 0.619, 0.628, 0.831, 0.266, 0.542, 0.262],
+    // 100 m/s, 3000 m
+    [0.472, 0.625, 0.548, 1.363, 0.472, 0.520, 0.406],
+    // 120 m/s, 3000 m
+    [0.421, 0.628, 0.577, 1.206, 0.421, 0.541, 0.408],
+    // 145 m/s, 3000 m
+    [0.358, 0.627, 0.593, 1.061, 0.358, 0.550, 0.351],
+    // 170 m/s, 3000 m
+    [0.305, 0.627, 0.600, 0.930, 0.305, 0.547, 0.298],
+    // 100 m/s, 5500 m
+    [0.473, 0.638, 0.513, 1.437, 0.473, 0.491, 0.473],
+    // 120 m/s, 5500 m
+    [0.454, 0.639, 0.528, 1.309, 0.453, 0.502, 0.424],
+    // 145 m/s, 5500 m
+    [0.400, 0.640, 0.558, 1.151, 0.400, 0.525, 0.374],
+    // 170 m/s, 5500 m
+    [0.346, 0.638, 0.570, 1.034, 0.346, 0.531, 0.329],
+    // 100 m/s, 8000 m
+    [0.514, 0.647, 0.419, 1.479, 0.514, 0.404, 0.391],
+    // 120 m/s, 8000 m
+    [0.457, 0.656, 0.487, 1.403, 0.457, 0.468, 0.449],
+    // 145 m/s, 8000 m
+    [0.436, 0.655, 0.508, 1.258, 0.436, 0.484, 0.390],
+    // 170 m/s, 8000 m
+    [0.391, 0.654, 0.533, 1.130, 0.391, 0.504, 0.349],
+];
+
+/// The 6 dB / 45 deg requirement where it holds, and a regression guard where it does not:
+/// at every node, every figure's worst over the cg and latency grid is at least the
+/// documented one (docs/margins.md), and where that is 0.828 or more, every point of the
+/// node meets 6 dB and 45 deg. Most figures are short of the requirement (the refuelling
+/// design's elevator loop above all: 0.266, 15 deg and 2.3 dB at 170 m/s, 500 m, cg 0.40,
+/// two periods of latency); this test keeps them from getting worse unnoticed.
+#[test]
+fn disk_margins_over_the_schedule_cg_and_latency_grid() {
+    let cfg = ControllerConfig::default();
+    assert_eq!(
+        cfg.nav_latency_steps, 1,
+        "the documented figures are for a 1-period predictor"
+    );
+    let points = grid(&cfg).unwrap();
+    assert_eq!(points.len(), 16 * 3 * 3);
+    let nodes = node_worst(&points);
+    assert_eq!(nodes.len(), DOCUMENTED_WORST.len());
+    let mut short = Vec::new();
+    for (n, documented) in nodes.iter().zip(DOCUMENTED_WORST) {
+        for (k, ((m, xcg, d), doc)) in n.worst.iter().zip(documented).enumerate() {
+            let at = format!(
+                "{} m/s, {} m, {}: alpha {:.4} (cg {xcg}, latency {d})",
+                n.speed_mps, n.altitude_m, FIGURES[k], m.alpha
+            );
+            if doc >= ALPHA_45_DEG {
+                // The requirement: every point of the node meets 6 dB and 45 deg.
+                assert!(m.meets_6db_45deg(), "requirement lost: {at}");
+            } else {
+                short.push(at.clone());
+            }
+            // The regression guard (and, above 0.828, the requirement's own figure).
+            assert!(m.alpha >= doc, "worse than documented ({doc}): {at}");
+        }
+    }
+    eprintln!("{} node figures short of 6 dB / 45 deg", short.len());
+}
+
+/// The disk margin's promise checked on the loop itself: each input's gain scaled to just
+/// inside the disk's gain range, every other loop closed, the loop stays stable (a pure
+/// gain is one of the perturbations the disk covers).
+#[test]
+fn the_loop_is_stable_across_each_inputs_disk_gain_range() {
+    let cfg = ControllerConfig::default();
+    for (speed, altitude, xcg, latency) in [(170.0, 500.0, 0.40, 2), (120.0, 3000.0, 0.35, 1)] {
+        let plant = TruePlant::new(xcg, speed, altitude).unwrap();
+        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), &cfg);
+        let lp = FlownLoop {
+            plant: &plant,
+            controller: &controller,
+            true_latency: latency,
+        };
+        let m = lp.matrices();
+        let margins = margins_of(&m);
+        for (i, dm) in margins.input.iter().enumerate() {
+            let h = dm.alpha / 2.0;
+            let (lo, hi) = (
+                (1.0 - h) / (1.0 + h),
+                if h < 1.0 { (1.0 + h) / (1.0 - h) } else { 1e3 },
+            );
+            for g in [lo * 1.001, hi * 0.999] {
+                // The plant's input i receives g u_i: w_i = (g - 1) u_i.
+                let a = &m.a + (g - 1.0) * m.b_w.column(i) * m.c_u.row(i);
+                let r = spectral_radius(&a);
+                assert!(
+                    r < 1.0,
+                    "{speed} m/s {altitude} m input {i}: gain {g:.3}, radius {r}"
+                );
+            }
         }
     }
 }

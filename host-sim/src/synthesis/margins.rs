@@ -861,6 +861,93 @@ pub fn table(grid: &[GridPoint]) -> String {
     out
 }
 
+/// The worst of each figure at one schedule node over the true cgs and latencies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeWorst {
+    /// Node airspeed, m/s.
+    pub speed_mps: f64,
+    /// Node altitude, m.
+    pub altitude_m: f64,
+    /// The smallest margin of each figure, [`FIGURES`] order, with its point's true cg and
+    /// latency.
+    pub worst: [(DiskMargin, f64, usize); 7],
+}
+
+/// The seven figures of a point: the four inputs loop at a time, the two channels, all four.
+pub const FIGURES: [&str; 7] = [
+    "elevator",
+    "throttle",
+    "aileron",
+    "rudder",
+    "lon (mu)",
+    "lat (mu)",
+    "all four (bound)",
+];
+
+impl Margins {
+    /// The seven figures, [`FIGURES`] order.
+    pub fn figures(&self) -> [DiskMargin; 7] {
+        let [e, t, a, r] = self.input;
+        [e, t, a, r, self.channel[0], self.channel[1], self.all]
+    }
+}
+
+/// Each node's worst figures over the grid's true cgs and latencies, in the grid's order.
+pub fn node_worst(grid: &[GridPoint]) -> Vec<NodeWorst> {
+    let mut out: Vec<NodeWorst> = Vec::new();
+    for p in grid {
+        let f = p.margins.figures();
+        let i = match out
+            .iter()
+            .position(|n| n.speed_mps == p.speed_mps && n.altitude_m == p.altitude_m)
+        {
+            Some(i) => i,
+            None => {
+                out.push(NodeWorst {
+                    speed_mps: p.speed_mps,
+                    altitude_m: p.altitude_m,
+                    worst: core::array::from_fn(|k| (f[k], p.xcg, p.true_latency)),
+                });
+                continue;
+            }
+        };
+        for (w, m) in out[i].worst.iter_mut().zip(f) {
+            if m.alpha < w.0.alpha {
+                *w = (m, p.xcg, p.true_latency);
+            }
+        }
+    }
+    out
+}
+
+/// [`node_worst`] as a Markdown table: each node's worst `alpha` per figure (phase margin
+/// deg, gain margin dB; at true cg / latency); a `*` marks a figure short of 6 dB / 45 deg.
+pub fn node_table(grid: &[GridPoint]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::from("| V m/s | h m |");
+    for f in FIGURES {
+        let _ = write!(out, " {f} |");
+    }
+    out.push_str("\n|---|---|---|---|---|---|---|---|---|\n");
+    for n in node_worst(grid) {
+        let _ = write!(out, "| {} | {} |", n.speed_mps, n.altitude_m);
+        for (m, xcg, d) in n.worst {
+            let _ = write!(
+                out,
+                " {:.3} ({:.1}°, {:.1} dB; {:.2}/{}){} |",
+                m.alpha,
+                m.phase_margin_deg(),
+                m.gain_margin_db(),
+                xcg,
+                d,
+                if m.meets_6db_45deg() { "" } else { " *" }
+            );
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// The core's design at a schedule node (the node's own, bit for bit).
 pub fn node_design(speed_mps: f64, altitude_m: f64) -> Result<DesignPoint, MarginsError> {
     design_at(FlightCondition {
