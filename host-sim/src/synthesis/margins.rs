@@ -763,6 +763,25 @@ pub fn margins_of(m: &LoopMatrices) -> Margins {
     }
 }
 
+/// The disk margins of a channel's DESIGN loop, for comparison with the flown one: the
+/// synthesis's own discrete plant with every design state fed back as it truly is (the
+/// actuators' deflections and the engine power measured, no latency), `u = -K [x; a; q]`.
+/// The channel's two inputs are `input[0]`, `input[1]` and `channel[0]`; the other two
+/// entries are empty loops (`alpha` 2).
+pub fn design_loop_margins(d: &super::ChannelDesign) -> Margins {
+    let n = d.a.nrows();
+    let mut b_w = DMatrix::zeros(n, 4);
+    b_w.view_mut((0, 0), (n, 2)).copy_from(&d.b);
+    let mut c_u = DMatrix::zeros(4, n);
+    c_u.view_mut((0, 0), (2, n)).copy_from(&(-&d.k));
+    margins_of(&LoopMatrices {
+        a: &d.a - &d.b * &d.k,
+        b_w,
+        b_r: DMatrix::zeros(n, 3),
+        c_u,
+    })
+}
+
 /// One point of the grid of [`grid`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridPoint {
