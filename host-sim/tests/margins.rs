@@ -82,8 +82,11 @@ fn core_against_model(
         true_airspeed_mps: speed as f32,
         altitude_m: altitude as f32,
     };
-    let trim = node_design(speed, altitude).unwrap().trim.command();
-    let mut ctl = Controller::new(*cfg).unwrap();
+    let trim = node_design(speed, altitude)
+        .expect("a schedule node")
+        .trim
+        .command();
+    let mut ctl = Controller::new(*cfg).expect("a valid configuration");
     // Standby at the node: the flight loop loads the node's design after the step.
     let standby = ControllerInput {
         measurement: frame(1),
@@ -101,7 +104,7 @@ fn core_against_model(
     let (mut diff, mut peak) = ([0.0f64; 4], [0.0f64; 4]);
     for k in 0..STEPS {
         line.push_back(measured(&x));
-        let late = line.pop_front().unwrap();
+        let late = line.pop_front().expect("the sample just pushed");
         let input = ControllerInput {
             measurement: frame(2 + k as u32),
             nav: nav_sample(&late, condition),

@@ -457,9 +457,7 @@ impl FlownLoop<'_> {
         let nm = MEASURED.len();
         for j in (1..self.true_latency).rev() {
             let (from, to) = (l.delay + (j - 1) * nm, l.delay + j * nm);
-            for k in 0..nm {
-                o[to + k] = s[from + k];
-            }
+            o[to..to + nm].copy_from_slice(&s[from..from + nm]);
         }
         if self.true_latency > 0 {
             for (k, &i) in MEASURED.iter().enumerate() {
@@ -482,9 +480,7 @@ impl FlownLoop<'_> {
         let d = c.design_latency;
         for j in (1..d).rev() {
             let (from, to) = (l.ring + (j - 1) * RING_SLOT, l.ring + j * RING_SLOT);
-            for k in 0..RING_SLOT {
-                o[to + k] = s[from + k];
-            }
+            o[to..to + RING_SLOT].copy_from_slice(&s[from..from + RING_SLOT]);
         }
         if d > 0 {
             let slot = &mut o[l.ring..l.ring + RING_SLOT];
@@ -704,7 +700,8 @@ pub fn margins_of(m: &LoopMatrices) -> Margins {
         alpha: 0.0,
         frequency_radps: 0.0,
     };
-    if !(radius < 1.0) {
+    // Not below 1 (or NaN): unstable.
+    if radius.partial_cmp(&1.0) != Some(std::cmp::Ordering::Less) {
         return Margins {
             input: [unstable; 4],
             channel: [unstable; 2],
