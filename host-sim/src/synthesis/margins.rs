@@ -630,27 +630,33 @@ fn mu_2(m: [[C64; 2]; 2]) -> f64 {
         let d = ld.exp();
         sigma_max_2([[m[0][0], m[0][1] * d], [m[1][0] / d, m[1][1]]])
     };
-    let (mut a, mut b) = (
-        -6.0 * std::f64::consts::LN_10,
-        6.0 * std::f64::consts::LN_10,
-    );
+    let ten6 = 6.0 * std::f64::consts::LN_10;
+    let (_, least) = golden_max(|ld| -scaled(ld), -ten6, ten6, 60);
+    (-least).min(scaled(0.0))
+}
+
+/// Golden-section search for the largest value of `f` on `[a, b]` in `iterations` steps:
+/// `(x, f(x))` of the better of the two last points (`f` unimodal on the bracket for the
+/// maximum, otherwise a local one).
+fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64, iterations: usize) -> (f64, f64) {
+    let (mut a, mut b) = (a, b);
     let g = (5f64.sqrt() - 1.0) / 2.0;
     let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
-    let (mut f1, mut f2) = (scaled(x1), scaled(x2));
-    for _ in 0..60 {
-        if f1 < f2 {
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..iterations {
+        if f1 > f2 {
             b = x2;
             (x2, f2) = (x1, f1);
             x1 = b - g * (b - a);
-            f1 = scaled(x1);
+            f1 = f(x1);
         } else {
             a = x1;
             (x1, f1) = (x2, f2);
             x2 = a + g * (b - a);
-            f2 = scaled(x2);
+            f2 = f(x2);
         }
     }
-    f1.min(f2).min(scaled(0.0))
+    if f1 > f2 { (x1, f1) } else { (x2, f2) }
 }
 
 /// `sigma_max` of a 4 x 4 complex matrix.
@@ -720,32 +726,15 @@ pub fn margins_of(m: &LoopMatrices) -> Margins {
             }
         }
         // Golden-section maximisation between the neighbours of the grid's peak.
-        let (mut a, mut b) = (
+        let (w, v) = golden_max(
+            |w| figures(&sens.at(w))[f],
             grid[at.saturating_sub(1)],
             grid[(at + 1).min(grid.len() - 1)],
+            REFINE_ITERATIONS,
         );
-        let fig = |w: f64| figures(&sens.at(w))[f];
-        let g = (5f64.sqrt() - 1.0) / 2.0;
-        let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
-        let (mut f1, mut f2) = (fig(x1), fig(x2));
         let mut w_best = grid[at];
-        for _ in 0..REFINE_ITERATIONS {
-            if f1 > f2 {
-                b = x2;
-                (x2, f2) = (x1, f1);
-                x1 = b - g * (b - a);
-                f1 = fig(x1);
-            } else {
-                a = x1;
-                (x1, f1) = (x2, f2);
-                x2 = a + g * (b - a);
-                f2 = fig(x2);
-            }
-        }
-        for (x, v) in [(x1, f1), (x2, f2)] {
-            if v > best {
-                (best, w_best) = (v, x);
-            }
+        if v > best {
+            (best, w_best) = (v, w);
         }
         DiskMargin {
             alpha: (1.0 / best).min(2.0),
