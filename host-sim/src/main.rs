@@ -3,6 +3,7 @@
 //! ```text
 //! host-sim trim      [--speed-mps V] [--altitude-m H] [--xcg X] [--json]
 //! host-sim gains     [--json] [--write-core PATH]
+//! host-sim margins   [--paper] [--design-latency D] [--by-node]
 //! host-sim dock      [--scenario NAME|PATH] [--controller ibvs|pbvs] [--start F,R,D] [--seed N]
 //!                    [--ibvs-gains k1,..,k5] [--min-closing-mps A] [--duration-s T]
 //!                    [--json] [--out DIR] [--no-files] [--pil [--firmware ELF]]
@@ -85,6 +86,21 @@ enum Command {
         /// Write the core's generated gains module to this path.
         #[arg(long, value_name = "PATH")]
         write_core: Option<PathBuf>,
+    },
+    /// Disk margins at the actuator inputs of the inner loops as flown, at every schedule
+    /// node, true cg 0.30/0.35/0.40 and true navigation latency 0/1/2 periods
+    /// (docs/margins.md).
+    Margins {
+        /// The paper's procedure's controller (default: the refuelling procedure's).
+        #[arg(long)]
+        paper: bool,
+        /// The latency the controller's predictor compensates, control periods (default: the
+        /// configuration's, 1).
+        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=4))]
+        design_latency: Option<u8>,
+        /// Print each node's worst figures (over the cgs and latencies) instead of every point.
+        #[arg(long)]
+        by_node: bool,
     },
     /// Fly one docking. Options given here override the scenario's values.
     Dock {
@@ -305,6 +321,11 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             json,
         } => trim(speed_mps, altitude_m, xcg, json),
         Command::Gains { json, write_core } => gains(json, write_core),
+        Command::Margins {
+            paper,
+            design_latency,
+            by_node,
+        } => margins(paper, design_latency, by_node),
         Command::Dock {
             scenario,
             controller,
@@ -557,6 +578,24 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
             t.rudder_rad.to_degrees(),
             t.residual
         );
+    }
+    Ok(())
+}
+
+fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(), AnyError> {
+    let mut cfg = if paper {
+        ControllerConfig::paper()
+    } else {
+        ControllerConfig::default()
+    };
+    if let Some(d) = design_latency {
+        cfg.nav_latency_steps = d;
+    }
+    let grid = synthesis::margins::grid(&cfg)?;
+    if by_node {
+        print!("{}", synthesis::margins::node_table(&grid));
+    } else {
+        print!("{}", synthesis::margins::table(&grid));
     }
     Ok(())
 }

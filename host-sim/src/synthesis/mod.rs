@@ -16,6 +16,7 @@
 pub mod codegen;
 pub mod latency;
 pub mod linalg;
+pub mod margins;
 pub mod schedule;
 
 use nalgebra::DMatrix;

@@ -1,0 +1,354 @@
+//! Disk margins of the inner loops as flown (`host_sim::synthesis::margins`, docs/margins.md):
+//! first that the loop analysed is the loop the core flies (the core's own controller
+//! stepping the linearised plant, sample by sample against the analysed state-space loop),
+//! then the margins over every schedule node, true cg 0.30..0.40 and true navigation latency
+//! 0..2 periods, and the design loop's own for comparison.
+
+use std::collections::VecDeque;
+
+use host_sim::synthesis::linalg::spectral_radius;
+use host_sim::synthesis::margins::{
+    ALPHA_45_DEG, FIGURES, FlownController, FlownLoop, LoopMatrices, TruePlant,
+    design_loop_margins, grid, margins_of, node_design, node_worst,
+};
+use host_sim::synthesis::nominal_refuelling;
+use ibvs_core::measurement::CameraMeasurement;
+use ibvs_core::nav::{FlightCondition, LatNav, LonNav, NavSample};
+use ibvs_core::{Controller, ControllerConfig, ControllerInput, Mode, ModeRequest};
+use nalgebra::DVector;
+
+/// Steps compared (1.6 s: the short-period and lateral modes' transients, the integrators
+/// and the predictor's record well under way).
+const STEPS: usize = 80;
+
+/// The measured design coordinates, in the navigation sample's order.
+const MEASURED: [usize; 9] = [0, 1, 2, 3, 5, 6, 7, 8, 9];
+
+/// The initial perturbation: 10 design coordinates `[theta, V, alpha, q, P, psi, phi, beta,
+/// p, r]`, then the three surfaces at trim. Small: no command reaches a limit.
+const X0: [f64; 13] = [
+    0.001, 0.05, 0.001, 0.002, 0.0, 0.001, 0.002, 0.001, 0.003, -0.001, 0.0, 0.0, 0.0,
+];
+
+fn nav_sample(m: &[f64; 9], condition: FlightCondition) -> NavSample {
+    let f = |i: usize| m[i] as f32;
+    NavSample {
+        lon: LonNav {
+            x_fwd_m: 0.0,
+            h_up_m: 0.0,
+            theta_rad: f(0),
+            v_mps: f(1),
+            alpha_rad: f(2),
+            q_radps: f(3),
+        },
+        lat: LatNav {
+            y_right_m: 0.0,
+            psi_rad: f(4),
+            phi_rad: f(5),
+            beta_rad: f(6),
+            p_radps: f(7),
+            r_radps: f(8),
+        },
+        condition,
+    }
+}
+
+/// A healthy frame of the drogue near the station, a little different each step (the
+/// frozen-frame check refuses repeats).
+fn frame(seq: u32) -> CameraMeasurement {
+    let t = seq as f32 * 0.05;
+    CameraMeasurement {
+        seq,
+        tracked: true,
+        image_x: 0.01 * t.sin(),
+        image_y: 0.01 * t.cos(),
+        depth_m: 8.0,
+        probe_tip: None,
+    }
+}
+
+/// The core's controller (`cfg`) flying the discrete linear plant of `lp` from `X0` with the
+/// loop's true latency, against the analysed loop `model` (its matrices driven by the desired
+/// velocity the core reports). Returns, per input, the largest difference of the commands
+/// over the largest command.
+fn core_against_model(
+    lp: &FlownLoop<'_>,
+    model: &FlownLoop<'_>,
+    cfg: &ControllerConfig,
+) -> [f64; 4] {
+    let m: LoopMatrices = model.matrices();
+    let (speed, altitude) = (lp.plant.speed_mps, lp.plant.altitude_m);
+    let condition = FlightCondition {
+        true_airspeed_mps: speed as f32,
+        altitude_m: altitude as f32,
+    };
+    let trim = node_design(speed, altitude)
+        .expect("a schedule node")
+        .trim
+        .command();
+    let mut ctl = Controller::new(*cfg).expect("a valid configuration");
+    // Standby at the node: the flight loop loads the node's design after the step.
+    let standby = ControllerInput {
+        measurement: frame(1),
+        nav: nav_sample(&[0.0; 9], condition),
+        probe_contact: false,
+        request: ModeRequest::None,
+    };
+    ctl.step(&standby);
+    ctl.follow_schedule();
+
+    let measured = |x: &DVector<f64>| -> [f64; 9] { core::array::from_fn(|k| x[MEASURED[k]]) };
+    let mut x = DVector::from_column_slice(&X0);
+    let mut line: VecDeque<[f64; 9]> = std::iter::repeat_n(measured(&x), lp.true_latency).collect();
+    let mut s = DVector::from_vec(model.initial_state(&X0));
+    let (mut diff, mut peak) = ([0.0f64; 4], [0.0f64; 4]);
+    for k in 0..STEPS {
+        line.push_back(measured(&x));
+        let late = line.pop_front().expect("the sample just pushed");
+        let input = ControllerInput {
+            measurement: frame(2 + k as u32),
+            nav: nav_sample(&late, condition),
+            probe_contact: false,
+            request: if k == 0 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            },
+        };
+        let out = ctl.step(&input);
+        ctl.follow_schedule();
+        assert!(
+            !matches!(out.mode, Mode::Standby | Mode::Breakaway),
+            "step {k}: {:?}",
+            out.mode
+        );
+        assert_eq!(out.status.0, 0, "step {k}: status {:#x}", out.status.0);
+        let sent = out.command.as_array();
+        let u: [f64; 4] = core::array::from_fn(|i| f64::from(sent[i]) - f64::from(trim[i]));
+        let u_model = &m.c_u * &s;
+        for i in 0..4 {
+            diff[i] = diff[i].max((u[i] - u_model[i]).abs());
+            peak[i] = peak[i].max(u[i].abs());
+        }
+        let v = out.v_des;
+        let r = DVector::from_column_slice(&[
+            f64::from(v.y_down_mps),
+            f64::from(v.z_fwd_mps),
+            f64::from(v.x_right_mps),
+        ]);
+        s = &m.a * &s + &m.b_r * r;
+        x = &lp.plant.pd * &x + &lp.plant.pb * DVector::from_column_slice(&u);
+    }
+    core::array::from_fn(|i| diff[i] / peak[i])
+}
+
+/// The relative difference accepted between the core's commands (`f32`, its navigation
+/// sample rounded to `f32`) and the analysed loop's (`f64`): about 250 times the largest
+/// measured over the points below (3.8e-6), and under a tenth of what a mis-wired loop
+/// gives (checked below).
+const AGREEMENT: f64 = 1e-3;
+
+#[test]
+fn the_analysed_loop_is_the_flown_loop() {
+    let refuel = ControllerConfig::default();
+    let paper = ControllerConfig::paper();
+    for (cfg, speed, altitude, xcg, latency) in [
+        (&refuel, 145.0, 5500.0, 0.30, 2),
+        (&refuel, 100.0, 8000.0, 0.40, 0),
+        (&refuel, 170.0, 500.0, 0.35, 1),
+        (&refuel, 120.0, 3000.0, 0.40, 2),
+        (&paper, 145.0, 3000.0, 0.30, 1),
+    ] {
+        let plant = TruePlant::new(xcg, speed, altitude).unwrap();
+        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), cfg);
+        let lp = FlownLoop {
+            plant: &plant,
+            controller: &controller,
+            true_latency: latency,
+        };
+        let rel = core_against_model(&lp, &lp, cfg);
+        eprintln!(
+            "{:?} {speed} {altitude} {xcg} {latency}: {rel:?}",
+            cfg.procedure
+        );
+        for (i, r) in rel.iter().enumerate() {
+            assert!(
+                *r < AGREEMENT,
+                "{:?} {speed} m/s {altitude} m cg {xcg} latency {latency}: input {i} differs by {r:.2e} of its peak",
+                cfg.procedure
+            );
+        }
+        // The comparison can fail: the same loop with the predictor set one period off (short,
+        // or long when the configuration compensates none), or the navigation one period
+        // later than flown, is far outside the agreement (0.099 of the peak at the least).
+        let mut off = controller.clone();
+        off.design_latency = match controller.design_latency {
+            0 => 1,
+            d => d - 1,
+        };
+        let wrong = [
+            FlownLoop {
+                controller: &off,
+                ..lp.clone()
+            },
+            FlownLoop {
+                true_latency: latency + 1,
+                ..lp.clone()
+            },
+        ];
+        for w in &wrong {
+            let worst = core_against_model(&lp, w, cfg)
+                .into_iter()
+                .fold(0.0, f64::max);
+            eprintln!("  mis-wired: {worst:.3e}");
+            assert!(
+                worst > 10.0 * AGREEMENT,
+                "a mis-wired loop agrees: {worst:.2e}"
+            );
+        }
+    }
+}
+
+/// Each schedule node's smallest disk margin `alpha` over true cg 0.30, 0.35, 0.40 and true
+/// navigation latency 0, 1, 2 periods, per figure (`FIGURES`: elevator, throttle, aileron,
+/// rudder loop at a time; the longitudinal and lateral channels' `mu`; the four inputs'
+/// `sigma_max` bound), of the refuelling procedure's controller as configured by default
+/// (predictor for 1 period): docs/margins.md's table, rounded down to 0.001. Nodes in the
+/// schedule's order (`[altitude][speed]`, speed fastest). 45 deg needs 0.828.
+const DOCUMENTED_WORST: [[f64; 7]; 16] = [
+    // 100 m/s, 500 m
+    [0.442, 0.618, 0.594, 1.264, 0.442, 0.555, 0.440],
+    // 120 m/s, 500 m
+    [0.382, 0.618, 0.615, 1.116, 0.382, 0.567, 0.381],
+    // 145 m/s, 500 m
+    [0.320, 0.619, 0.624, 0.960, 0.320, 0.564, 0.317],
+    // 170 m/s, 500 m
+    [0.266, 0.619, 0.628, 0.831, 0.266, 0.542, 0.262],
+    // 100 m/s, 3000 m
+    [0.472, 0.625, 0.548, 1.363, 0.472, 0.520, 0.406],
+    // 120 m/s, 3000 m
+    [0.421, 0.628, 0.577, 1.206, 0.421, 0.541, 0.408],
+    // 145 m/s, 3000 m
+    [0.358, 0.627, 0.593, 1.061, 0.358, 0.550, 0.351],
+    // 170 m/s, 3000 m
+    [0.305, 0.627, 0.600, 0.930, 0.305, 0.547, 0.298],
+    // 100 m/s, 5500 m
+    [0.473, 0.638, 0.513, 1.437, 0.473, 0.491, 0.473],
+    // 120 m/s, 5500 m
+    [0.454, 0.639, 0.528, 1.309, 0.453, 0.502, 0.424],
+    // 145 m/s, 5500 m
+    [0.400, 0.640, 0.558, 1.151, 0.400, 0.525, 0.374],
+    // 170 m/s, 5500 m
+    [0.346, 0.638, 0.570, 1.034, 0.346, 0.531, 0.329],
+    // 100 m/s, 8000 m
+    [0.514, 0.647, 0.419, 1.479, 0.514, 0.404, 0.391],
+    // 120 m/s, 8000 m
+    [0.457, 0.656, 0.487, 1.403, 0.457, 0.468, 0.449],
+    // 145 m/s, 8000 m
+    [0.436, 0.655, 0.508, 1.258, 0.436, 0.484, 0.390],
+    // 170 m/s, 8000 m
+    [0.391, 0.654, 0.533, 1.130, 0.391, 0.504, 0.349],
+];
+
+/// The 6 dB / 45 deg requirement where it holds, and a regression guard where it does not:
+/// at every node, every figure's worst over the cg and latency grid is at least the
+/// documented one (docs/margins.md), and where that is 0.828 or more, every point of the
+/// node meets 6 dB and 45 deg. Most figures are short of the requirement (the refuelling
+/// design's elevator loop above all: 0.266, 15 deg and 2.3 dB at 170 m/s, 500 m, cg 0.40,
+/// two periods of latency); this test keeps them from getting worse unnoticed.
+#[test]
+fn disk_margins_over_the_schedule_cg_and_latency_grid() {
+    let cfg = ControllerConfig::default();
+    assert_eq!(
+        cfg.nav_latency_steps, 1,
+        "the documented figures are for a 1-period predictor"
+    );
+    let points = grid(&cfg).unwrap();
+    assert_eq!(points.len(), 16 * 3 * 3);
+    let nodes = node_worst(&points);
+    assert_eq!(nodes.len(), DOCUMENTED_WORST.len());
+    let mut short = Vec::new();
+    for (n, documented) in nodes.iter().zip(DOCUMENTED_WORST) {
+        for (k, ((m, xcg, d), doc)) in n.worst.iter().zip(documented).enumerate() {
+            let at = format!(
+                "{} m/s, {} m, {}: alpha {:.4} (cg {xcg}, latency {d})",
+                n.speed_mps, n.altitude_m, FIGURES[k], m.alpha
+            );
+            if doc >= ALPHA_45_DEG {
+                // The requirement: every point of the node meets 6 dB and 45 deg.
+                assert!(m.meets_6db_45deg(), "requirement lost: {at}");
+            } else {
+                short.push(at.clone());
+            }
+            // The regression guard (and, above 0.828, the requirement's own figure).
+            assert!(m.alpha >= doc, "worse than documented ({doc}): {at}");
+        }
+    }
+    eprintln!("{} node figures short of 6 dB / 45 deg", short.len());
+}
+
+/// The disk margin's promise checked on the loop itself: each input's gain scaled to just
+/// inside the disk's gain range, every other loop closed, the loop stays stable (a pure
+/// gain is one of the perturbations the disk covers).
+#[test]
+fn the_loop_is_stable_across_each_inputs_disk_gain_range() {
+    let cfg = ControllerConfig::default();
+    for (speed, altitude, xcg, latency) in [(170.0, 500.0, 0.40, 2), (120.0, 3000.0, 0.35, 1)] {
+        let plant = TruePlant::new(xcg, speed, altitude).unwrap();
+        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), &cfg);
+        let lp = FlownLoop {
+            plant: &plant,
+            controller: &controller,
+            true_latency: latency,
+        };
+        let m = lp.matrices();
+        let margins = margins_of(&m);
+        for (i, dm) in margins.input.iter().enumerate() {
+            let h = dm.alpha / 2.0;
+            let (lo, hi) = (
+                (1.0 - h) / (1.0 + h),
+                if h < 1.0 { (1.0 + h) / (1.0 - h) } else { 1e3 },
+            );
+            for g in [lo * 1.001, hi * 0.999] {
+                // The plant's input i receives g u_i: w_i = (g - 1) u_i.
+                let a = &m.a + (g - 1.0) * m.b_w.column(i) * m.c_u.row(i);
+                let r = spectral_radius(&a);
+                assert!(
+                    r < 1.0,
+                    "{speed} m/s {altitude} m input {i}: gain {g:.3}, radius {r}"
+                );
+            }
+        }
+    }
+}
+
+/// docs/margins.md, "Why the margins are short": the refuelling design's own LQR loop (its
+/// design model, true actuator deflections and engine power fed back, no latency) is already
+/// short of 45 deg at the elevator (0.736, 40.4 deg) and meets it at the other three inputs
+/// (throttle 0.978, aileron 1.018, rudder 1.691); flown, the throttle's falls to about 0.70
+/// (its engine power is the controller's open-loop estimate).
+#[test]
+fn the_design_loop_alone_is_short_at_the_elevator() {
+    let s = nominal_refuelling().unwrap();
+    let lon = design_loop_margins(&s.lon);
+    let lat = design_loop_margins(&s.lat);
+    let measured = [lon.input[0], lon.input[1], lat.input[0], lat.input[1]].map(|m| m.alpha);
+    for (got, documented) in measured.iter().zip([0.736, 0.978, 1.018, 1.691]) {
+        assert!((got - documented).abs() < 5e-4, "{measured:?}");
+    }
+    assert!(!lon.input[0].meets_6db_45deg());
+    let flown = FlownLoop {
+        plant: &TruePlant::new(0.40, 120.0, 3000.0).unwrap(),
+        controller: &FlownController::new(
+            &node_design(120.0, 3000.0).unwrap(),
+            &ControllerConfig::default(),
+        ),
+        true_latency: 0,
+    }
+    .margins();
+    assert!(
+        flown.input[1].alpha < 0.75,
+        "flown throttle {}",
+        flown.input[1].alpha
+    );
+}
