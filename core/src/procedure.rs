@@ -58,8 +58,10 @@ pub enum Procedure {
 // Scenario files name only what they change; an unknown key is an error that names it.
 #[serde(default, deny_unknown_fields)]
 pub struct RefuellingConfig {
-    /// Pre-contact station: probe tip to drogue plane, m. Default 3 m (about 10 ft: the
-    /// receiver stabilises a few feet behind the basket before it is cleared to contact).
+    /// Pre-contact station: probe tip to drogue plane, m. Default 3.6 m (about 12 ft: the
+    /// receiver stabilises a few feet behind the basket before it is cleared to contact),
+    /// outside the gate ([`commit_depth`], 2.5 m at 1 m/s) by more than the station's
+    /// overrun limit; it was 3 m while the gate was at a fixed 1 m.
     pub station_depth_m: f32,
     /// Gain of the pre-contact depth hold, 1/s.
     pub station_gain_per_s: f32,
@@ -158,7 +160,7 @@ pub struct RefuellingConfig {
     /// 1.0 m/s, the calm air's. It was 1.3 m/s (in MIL-F-8785C's 10⁻² air the drogue moves
     /// less in the shorter capture: 300 sorties, 76.7 % docked at 1.0 m/s, 80.3 % at
     /// 1.3 m/s); but the receiver must be able to stop short of the plane at the gate
-    /// ([`commit_depth`]), and from 1.3 m/s it needs 2.35 m against 1.66 m from 1.0 m/s:
+    /// ([`commit_depth`]), and from 1.3 m/s it needs 3.06 m against 2.2 m from 1.0 m/s:
     /// the gate would then sit inside the station's overrun limit (`station_depth_m -
     /// station_overrun_m`, 2 m), where no approach has been cleared yet.
     pub rough_air_contact_speed_mps: f32,
@@ -170,11 +172,12 @@ pub struct RefuellingConfig {
     /// drogue plane at the approach's closing speed, whichever is deeper.
     pub commit_depth_m: f32,
     /// How late the probe tip's forward velocity follows a deceleration command, s: the
-    /// stopping distance's first term ([`stopping_distance_m`]). Default 1.16 s, measured on
-    /// the design plant in calm air: a no-go at 3.9 m from 1.06 m/s, the command slewed down
-    /// at `missed_accel_mps2` (1 m/s²), stopped the tip 1.79 m and 2.38 s later
-    /// (`(1.79 − 1.06² / 2) / 1.06`): the throttle's idle and the engine's spool-down, not
-    /// the slew, take most of it.
+    /// stopping distance's first term ([`stopping_distance_m`]). Default 1.7 s, measured on
+    /// the design plant: a no-go from 1.06 m/s in calm air, the command slewed down at
+    /// `missed_accel_mps2` (1 m/s²), stopped the tip 1.79 m later; in level II air, from
+    /// 0.92 m/s with the receiver still gathering speed, 1.99 m (`(1.99 − 0.92² / 2) /
+    /// 0.92`). The throttle's idle and the engine's spool-down, not the slew, take most of
+    /// it: a slew of 2 or 3 m/s² shortened the stop by 0.07 m and 0.15 m only.
     pub forward_lag_s: f32,
     /// The receiver must be able to stop this far short of the drogue plane when it turns
     /// away at the gate, m: the estimated depth's error at 2 m (a few centimetres) and the
@@ -224,10 +227,14 @@ pub struct RefuellingConfig {
     /// Depth inside which the capture judges its late no-go and its closing speed, m:
     /// farther out the capture still has more than its lag to correct, and the gate's
     /// half-second prediction is not the miss at the plane. Default 1.3 m: chosen with
-    /// `late_gate_min_depth_m` on tuning runs 0..1,999 of `level2` (successes / basket
-    /// strikes: the whole capture from 1.96 m to the plane, 1,508 / 13; 0..1.0 m, 1,656 /
-    /// 53; 0.5..1.0 m, 1,658 / 49; 0.6..1.3 m, 1,646 / 19; 0.8..1.5 m, 1,636 / 16;
-    /// 0.4..1.96 m, 1,576 / 14).
+    /// `late_gate_min_depth_m` on tuning runs 0..1,999 of `level2` with the gate at 1.96 m
+    /// (successes / basket strikes: the whole capture from the gate to the plane, 1,508 /
+    /// 13; 0..1.0 m, 1,656 / 53; 0.5..1.0 m, 1,658 / 49; 0.6..1.3 m, 1,646 / 19;
+    /// 0.8..1.5 m, 1,636 / 16; 0.4..1.96 m, 1,576 / 14). With the gate at 2.5 m (the
+    /// defaults), the same runs: 1,649 successes and 75 unsafe runs, against 1,724 and 75
+    /// with no late gate at all (the capture always pushing on: its near misses, 0.30 to
+    /// 0.355 m off, become strikes and passes by the hose); `mil-level2`, 1,159 / 489
+    /// against 1,228 / 502.
     pub late_gate_depth_m: f32,
     /// Depth inside which the capture no longer turns away, m: a turn away needs time to
     /// act (the tip's velocity follows a command about 0.6 s late, 0.6 m at the contact
@@ -248,7 +255,9 @@ pub struct RefuellingConfig {
     /// first attempt; at 0.5 s 99.9 % and 87 %, no unsafe end state, the late gate's taper
     /// the backstop; `docs/scenarios.md`).
     pub gate_max_horizon_s: f32,
-    /// Longest capture phase, s.
+    /// Longest capture phase, s. Default 5 s: from the gate (2.5 m at the 1 m/s contact
+    /// speed) at the capture's least closing speed (`capture_min_closing_mps`, 0.65 m/s),
+    /// 3.8 s, and a margin; it was 3 s while the gate was at 1 m.
     pub capture_timeout_s: f32,
     /// The capture's lateral and vertical gain is `1 / time to go`, the time to go taken
     /// as at least this (the inner loops' lag: a shorter one would only excite them), s.
@@ -295,7 +304,7 @@ pub struct RefuellingConfig {
 impl Default for RefuellingConfig {
     fn default() -> Self {
         Self {
-            station_depth_m: 3.0,
+            station_depth_m: 3.6,
             station_gain_per_s: 0.4,
             station_max_speed_mps: 1.5,
             station_integral_gain_per_s2: 0.01,
@@ -318,7 +327,7 @@ impl Default for RefuellingConfig {
             rough_air_contact_speed_mps: 1.0,
             abort_offset_m: 0.6,
             commit_depth_m: 1.0,
-            forward_lag_s: 1.16,
+            forward_lag_s: 1.7,
             stop_clearance_m: 0.3,
             escape_speed_mps: 0.0,
             escape_accel_mps2: 4.0,
@@ -330,7 +339,7 @@ impl Default for RefuellingConfig {
             late_gate_min_depth_m: 0.6,
             late_gate_taper_m: 0.5,
             gate_max_horizon_s: 0.5,
-            capture_timeout_s: 3.0,
+            capture_timeout_s: 5.0,
             capture_min_time_to_go_s: 0.4,
             capture_min_closing_mps: 0.65,
             overshoot_m: 0.3,

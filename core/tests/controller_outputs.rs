@@ -230,7 +230,11 @@ impl Sortie {
     /// Engaged at the station, held there until cleared to the approach.
     fn to_approach() -> Self {
         let mut s = Self::new();
-        let station = [0.0, 0.0, 3.0];
+        let station = [
+            0.0,
+            0.0,
+            procedure::RefuellingConfig::default().station_depth_m,
+        ];
         assert_eq!(s.step(station, 0.0).mode, Mode::PreContact);
         for _ in 0..200 {
             if s.step(station, 0.0).mode == Mode::Approach {
@@ -425,12 +429,13 @@ fn the_station_integrates_a_steady_offset_and_starts_again_from_zero_at_engage()
 fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the_station() {
     let mut s = Sortie::to_approach();
     let rc = s.ctl.config().refuelling;
-    // The drogue swings off to the right, beyond the abort offset, at 2 m of depth.
+    // The drogue swings off to the right, beyond the abort offset, at 3 m of depth (outside
+    // the gate's).
     let mut x = 0.0_f32;
     let mut missed = None;
     for _ in 0..300 {
         x = (x + 0.01).min(0.8);
-        let out = s.step([x, 0.0, 2.0], 0.0);
+        let out = s.step([x, 0.0, 3.0], 0.0);
         if out.mode == Mode::MissedApproach {
             missed = Some(out);
             break;
@@ -441,7 +446,7 @@ fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the
     let clear_steps = (rc.missed_clear_s / Controller::PERIOD_S).round() as usize;
     let mut outs = vec![first];
     for _ in 0..clear_steps + 60 {
-        let out = s.step([0.8, 0.0, 2.0], 0.0);
+        let out = s.step([0.8, 0.0, 3.0], 0.0);
         assert_eq!(out.mode, Mode::MissedApproach);
         outs.push(out);
     }
@@ -509,16 +514,17 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
     let mut twin = DrogueEstimator::default();
     // The drogue off the tip on both axes, so that both enter the radial mean.
     let (x, y) = (0.06_f32, -0.04_f32);
-    let mut depth = 3.0_f32;
+    let mut depth = rc.station_depth_m;
     let mut previous = Mode::Standby;
     let (mut checked_far, mut checked_near) = (0, 0);
     let (mut contact, mut last) = (None, ControllerOutput::default());
-    for k in 0..600 {
+    for k in 0..900 {
         // At the station, then closing at 0.5 m/s (long enough for the desired velocity to
-        // reach the contact speed), and over the last 1.2 m at 1.6 m/s (not 1: a horizon
-        // `to_go / closing` must not equal `to_go * closing`).
+        // reach the contact speed), and from outside the depth where the capture judges its
+        // closing speed at 1.6 m/s (not 1: a horizon `to_go / closing` must not equal
+        // `to_go * closing`).
         let closing = match previous {
-            Mode::Approach | Mode::Terminal if depth > 1.2 => 0.5,
+            Mode::Approach | Mode::Terminal if depth > rc.late_gate_depth_m + 0.1 => 0.5,
             Mode::Approach | Mode::Terminal => 1.6,
             _ => 0.0,
         };

@@ -55,9 +55,9 @@ fn frame_content() -> impl Strategy<Value = (bool, f32, f32, f32)> {
     prop_oneof![
         3 => (Just(true), -0.6_f32..0.6, -0.45_f32..0.45, 0.2_f32..12.0),
         2 => (Just(true), -0.6_f32..0.6, -0.45_f32..0.45, 0.3_f32..0.75),
-        // The refuelling procedure's pre-contact station (3 m, nearly centred) and the last
+        // The refuelling procedure's pre-contact station (3.6 m, nearly centred) and the last
         // metre before the drogue.
-        2 => (Just(true), -0.04_f32..0.04, -0.04_f32..0.04, 2.8_f32..3.2),
+        2 => (Just(true), -0.04_f32..0.04, -0.04_f32..0.04, 3.4_f32..3.8),
         1 => (Just(true), -0.2_f32..0.2, -0.2_f32..0.2, 0.05_f32..1.0),
         2 => (any::<bool>(), bits(), bits(), bits()),
     ]
@@ -364,11 +364,9 @@ fn the_sortie_generator_reaches_every_row_of_the_refuelling_table() {
         "PredictedMiss",
         "LateNoGo",
         "PassedDroguePlane",
-        // Not `CaptureTimeout`: with the closing speed checked on every valid frame
-        // (`ClosingTooSlow` below 0.65 m/s), a capture from the 1 m commit depth reaches the
-        // plane in under 1.6 s, and only one that loses its frames while its coasting
-        // estimate closes slower than 0.43 m/s can last 3 s, which these segments do not
-        // fly (a `Hold` is a `ClosingTooSlow` now). The mode's unit tests take it there.
+        // `CaptureTimeout`: a hold inside the depths where the capture judges its closing
+        // speed (0.6 m and closer) lasts until the capture's time is up.
+        "CaptureTimeout",
         "ClosingTooSlow",
         "MeasurementLost",
         "NavLost",

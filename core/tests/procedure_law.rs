@@ -52,7 +52,7 @@ fn the_station_holds_depth_and_follows_the_mean_offset_plus_its_integral() {
     // The instantaneous offset, the drogue's velocity and its forward swing must not enter:
     // only the mean offset, the station's integral (given whole, whatever the
     // feed-forward gain) and the depth.
-    let e = |depth| estimate([1.0, 1.0], [0.2, -0.4], 0.1, depth);
+    let e = |behind: f32| estimate([1.0, 1.0], [0.2, -0.4], 0.1, rc.station_depth_m + behind);
     let integral = [0.03, 0.05];
     let c = rc.contact_speed_mps;
     let half = RefuellingConfig {
@@ -60,16 +60,16 @@ fn the_station_holds_depth_and_follows_the_mean_offset_plus_its_integral() {
         ..rc
     };
     // 1 m behind the station: close at 0.4 m/s; right 0.03 + 0.5 * 0.2, up 0.05 - 0.5 * 0.4.
-    let v = desired_velocity(&e(4.0), integral, Forward::Station, c, &half, &lim);
+    let v = desired_velocity(&e(1.0), integral, Forward::Station, c, &half, &lim);
     assert_velocity(v, [0.13, -0.15, 0.4], "1 m behind");
     // 1 m inside the station: open at 0.4 m/s.
-    let v = desired_velocity(&e(2.0), integral, Forward::Station, c, &rc, &lim);
+    let v = desired_velocity(&e(-1.0), integral, Forward::Station, c, &rc, &lim);
     assert_velocity(v, [0.13, -0.15, -0.4], "1 m inside");
     // 7 m behind: 2.8 m/s limited to the station's 1.5 m/s.
-    let v = desired_velocity(&e(10.0), integral, Forward::Station, c, &rc, &lim);
+    let v = desired_velocity(&e(7.0), integral, Forward::Station, c, &rc, &lim);
     assert_velocity(v, [0.13, -0.15, 1.5], "far behind");
     // A large mean offset is closed at the correction limit, 0.5 m/s, beside the integral.
-    let far_off = estimate([0.0, 0.0], [-3.0, 2.0], 0.0, 3.0);
+    let far_off = estimate([0.0, 0.0], [-3.0, 2.0], 0.0, rc.station_depth_m);
     let v = desired_velocity(&far_off, integral, Forward::Station, c, &rc, &lim);
     assert_velocity(v, [-0.47, 0.55, 0.0], "far off the axis, on station");
 }
@@ -156,15 +156,15 @@ fn the_missed_approach_backs_straight_out_and_descends_whatever_the_drogue_does(
 #[test]
 fn the_gate_lies_where_a_no_go_still_stops_short_of_the_plane() {
     let rc = RefuellingConfig::default();
-    // From 1 m/s: 1 m/s x 1.16 s of lag, then 1 m/s / (2 x 1 m/s^2): 1.66 m; 0.3 m clear.
+    // From 1 m/s: 1 m/s x 1.7 s of lag, then 1 m/s / (2 x 1 m/s^2): 2.2 m; 0.3 m clear.
     let d = procedure::stopping_distance_m(1.0, &rc);
-    assert!((d - 1.66).abs() < 1e-5, "{d}");
-    assert!((procedure::commit_depth(1.0, &rc) - 1.96).abs() < 1e-5);
+    assert!((d - 2.2).abs() < 1e-5, "{d}");
+    assert!((procedure::commit_depth(1.0, &rc) - 2.5).abs() < 1e-5);
     // Slowly, the configured least depth governs.
     let slow = procedure::commit_depth(0.1, &rc);
     assert!((slow - rc.commit_depth_m).abs() < 1e-6, "{slow}");
     // A faster approach commits farther out: quadratically.
-    assert!(procedure::commit_depth(1.3, &rc) > 2.3);
+    assert!(procedure::commit_depth(1.3, &rc) > 3.3);
 }
 
 #[test]

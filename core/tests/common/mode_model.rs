@@ -485,6 +485,9 @@ pub struct Model {
     stable: u32,
     mode_steps: u32,
     sortie_steps: u32,
+    /// The gate's depth of the approach flown (`procedure::commit_depth` at its closing
+    /// speed, chosen from the air as it starts), m.
+    commit_depth: f64,
     filter: Option<Filter>,
 }
 
@@ -508,10 +511,21 @@ impl Model {
                 m.reason,
                 (m.meas_invalid, m.terminal_steps, m.attempt, m.no_go),
                 (m.stable, m.mode_steps, m.sortie_steps),
+                m.commit_depth.to_bits(),
             )
         };
         filters && discrete(self) == discrete(other)
     }
+}
+
+/// The gate's depth for an approach closing at `contact_mps`: where a no-go still stops
+/// `stop_clearance_m` short of the plane after the forward loop's lag and the missed
+/// approach's deceleration, or `commit_depth_m` if deeper, m.
+fn commit_depth(cfg: &ControllerConfig, contact_mps: f32) -> f64 {
+    let rc = &cfg.refuelling;
+    let v = f64::from(contact_mps);
+    let stop = v * f64::from(rc.forward_lag_s) + v * v / (2.0 * f64::from(rc.missed_accel_mps2));
+    f64::from(rc.commit_depth_m).max(stop + f64::from(rc.stop_clearance_m))
 }
 
 /// Steps of a time, as the core rounds it.
@@ -539,6 +553,7 @@ impl Model {
             stable: 0,
             mode_steps: 0,
             sortie_steps: 0,
+            commit_depth: commit_depth(&cfg, cfg.refuelling.contact_speed_mps),
             filter: None,
         }
     }
@@ -961,13 +976,19 @@ impl Model {
                         && o.le(norm(offset), f(rc.station_clear_offset_m))
                     {
                         (self.mode, self.no_go) = (Mode::Approach, None);
+                        let contact = if o.gt(rms, f(rc.rough_air_drogue_speed_mps)) {
+                            rc.rough_air_contact_speed_mps
+                        } else {
+                            rc.contact_speed_mps
+                        };
+                        self.commit_depth = commit_depth(&cfg, contact);
                     }
                 }
                 Mode::Approach if lost => brk(self, BreakawayReason::MeasurementLost),
                 Mode::Approach if o.gt(norm(offset), f(rc.abort_offset_m)) => {
                     no_go(self, NoGoReason::OffsetTooLarge)
                 }
-                Mode::Approach if o.le(depth, f(rc.commit_depth_m)) => {
+                Mode::Approach if o.le(depth, self.commit_depth) => {
                     if o.gt(predicted_miss, f(rc.gate_radius_m)) {
                         no_go(self, NoGoReason::PredictedMiss);
                     } else {
@@ -982,10 +1003,21 @@ impl Model {
                 Mode::Terminal if self.mode_steps > steps(rc.capture_timeout_s) => {
                     no_go(self, NoGoReason::CaptureTimeout)
                 }
-                Mode::Terminal if meas_ok && o.gt(predicted_miss, late_gate(depth)) => {
+                // The late gate and the closing speed are judged between two depths only.
+                Mode::Terminal
+                    if meas_ok
+                        && o.le(depth, f(rc.late_gate_depth_m))
+                        && !o.lt(depth, f(rc.late_gate_min_depth_m))
+                        && o.gt(predicted_miss, late_gate(depth)) =>
+                {
                     no_go(self, NoGoReason::LateNoGo)
                 }
-                Mode::Terminal if meas_ok && o.lt(closing, f(rc.capture_min_closing_mps)) => {
+                Mode::Terminal
+                    if meas_ok
+                        && o.le(depth, f(rc.late_gate_depth_m))
+                        && !o.lt(depth, f(rc.late_gate_min_depth_m))
+                        && o.lt(closing, f(rc.capture_min_closing_mps)) =>
+                {
                     no_go(self, NoGoReason::ClosingTooSlow)
                 }
                 Mode::Terminal => {}
