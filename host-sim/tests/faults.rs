@@ -272,7 +272,8 @@ fn a_frozen_measurement_is_bridged_up_to_the_limits_then_breaks_away() {
     // commit, a freeze of up to 1 + 5 + 25 frames is bridged, a longer one breaks away
     // (MeasurementLost) wherever it starts, before the probe reaches the drogue plane.
     let frames = 1 + FROZEN_LIMIT + HOLD_LIMIT;
-    for range_m in [5.0, 3.0, 2.5] {
+    // Ranges where the longest bridged freeze (0.62 s at 1 m/s) ends before the gate (2.5 m).
+    for range_m in [5.0, 3.3] {
         let f = fly(&[SimFault::at_range(
             FaultKind::FrozenMeasurement,
             range_m,
@@ -391,17 +392,19 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     );
     // Without the elevator, the aileron or the throttle the receiver loses the drogue from
     // the image (the elevator: `MeasurementLost` at 5.50 s, 3.67 m from the drogue, never
-    // reaching the plane), runs through its pre-contact station (the throttle), or the
-    // navigation leaves the envelope (the aileron: it rolls off): breakaway, before reaching
-    // the drogue plane. (With the refuelling design that did not carry the actuators the
+    // reaching the plane; the aileron: it rolls off, `MeasurementLost` at 7.64 s since the
+    // station moved out to 3.6 m, `NavLost` before), or runs through its pre-contact station
+    // (the throttle): breakaway, before reaching the drogue plane. (With the refuelling design that did not carry the actuators the
     // stuck elevator ran through its station instead, `StationOverrun` at 9.88 s; before the
     // station's integral and the swing feed-forward it lost the drogue at 5.62 s; with the
     // refuelling gains designed at the nominal cg it ran through the station at 6.74 s and
     // crossed the plane 12.0 m from the centre.)
     // Known gaps (the referee, watching 15 s of each breakaway): without the aileron, or
     // with a slow elevator or aileron, the breakaway ends in an upset (load factor below 0 g
-    // or above 2 g); with the throttle stuck nothing stops the closing, and the receiver flies
-    // past the drogue (1.969 m off, 1.77 m above it) into the tanker's keep-out sphere.
+    // or above 2 g). With the throttle stuck nothing stops the closing: the receiver flew past
+    // the drogue (1.969 m off, 1.77 m above it) into the tanker's keep-out sphere while the
+    // station was at 3 m; from the 3.6 m station it overruns and breaks away earlier
+    // (6.52 s), and the referee sees no hazard.
     let cases: [(Flown, &str, &str, &[HazardKind]); 5] = [
         (
             stuck(Actuator::Elevator),
@@ -411,7 +414,7 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
         ),
         (
             stuck(Actuator::Aileron),
-            "NavLost",
+            "MeasurementLost",
             "aileron stuck",
             &[HazardKind::Upset],
         ),
@@ -419,7 +422,7 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
             stuck(Actuator::Throttle),
             "StationOverrun",
             "throttle stuck",
-            &[HazardKind::TankerProximity],
+            &[],
         ),
         (
             slow(Actuator::Elevator, 0.05),
