@@ -162,7 +162,7 @@ pub struct RefuellingConfig {
     /// 1.3 m/s); but the receiver must be able to stop short of the plane at the gate
     /// ([`commit_depth`]), and from 1.3 m/s it needs 3.06 m against 2.2 m from 1.0 m/s:
     /// the gate would then sit inside the station's overrun limit (`station_depth_m -
-    /// station_overrun_m`, 2 m), where no approach has been cleared yet.
+    /// station_overrun_m`, 2.6 m), where no approach has been cleared yet.
     pub rough_air_contact_speed_mps: f32,
     /// In the contact approach, a drogue offset beyond this (radial) is a no-go at once, m.
     pub abort_offset_m: f32,

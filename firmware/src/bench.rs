@@ -30,6 +30,7 @@ use ibvs_core::wire::{
     Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Telemetry, Uplink, WireError, config_id,
     crc32c, encode_config_write, encode_downlink, encode_telemetry, encode_uplink,
 };
+use ibvs_core::procedure;
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
 };
@@ -236,14 +237,16 @@ fn steps<C: CostCounter>(
         run(1, &mut input, &mut controller);
     }
     let approached = controller.mode() == Mode::Approach;
+    // The gate's depth at the approach's closing speed (the air here is calm).
+    let commit = procedure::commit_depth(cfg.refuelling.contact_speed_mps, &cfg.refuelling);
     // Close at 1 m/s (the navigation says so) with the drogue drifting off: a frame lost on
     // the way, and at the commit depth the drogue 0.4 m off: a no-go.
     input.nav.lon.v_mps = 1.0;
     let mut depth = station;
-    while depth > cfg.refuelling.commit_depth_m + 0.01 {
+    while depth > commit + 0.01 {
         depth -= 0.02;
         k += 1;
-        let off = 0.4 * (station - depth) / (station - cfg.refuelling.commit_depth_m);
+        let off = 0.4 * (station - depth) / (station - commit);
         frame(&mut input, &cfg, [off.min(0.4), 0.0, depth], k);
         run(2, &mut input, &mut controller);
         if k == 80 {
@@ -253,12 +256,7 @@ fn steps<C: CostCounter>(
         }
     }
     k += 1;
-    frame(
-        &mut input,
-        &cfg,
-        [0.4, 0.0, cfg.refuelling.commit_depth_m - 0.01],
-        k,
-    );
+    frame(&mut input, &cfg, [0.4, 0.0, commit - 0.01], k);
     run(2, &mut input, &mut controller);
     let no_go = controller.mode() == Mode::MissedApproach;
     // The missed approach: back to the station, and the next attempt's pre-contact.
@@ -285,7 +283,7 @@ fn steps<C: CostCounter>(
         k += 1;
         frame(&mut input, &cfg, [0.01, 0.0, depth], k);
         let path = match controller.mode() {
-            Mode::Approach if depth <= cfg.refuelling.commit_depth_m + 0.02 => 5,
+            Mode::Approach if depth <= commit + 0.02 => 5,
             Mode::Approach => 2,
             _ => 6,
         };
