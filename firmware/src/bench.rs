@@ -26,11 +26,11 @@ use core::hint::black_box;
 use ibvs_core::estimator::TipGeometry;
 use ibvs_core::gains::TRIM;
 use ibvs_core::nav::{FlightCondition, NavSample};
+use ibvs_core::procedure;
 use ibvs_core::wire::{
     Downlink, FrameDecoder, LinkCounters, MAX_FRAME_LEN, Telemetry, Uplink, WireError, config_id,
     crc32c, encode_config_write, encode_downlink, encode_telemetry, encode_uplink,
 };
-use ibvs_core::procedure;
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
 };
