@@ -487,11 +487,6 @@ config_rules! {
     non_negative refuelling.forward_lag_s;
     holds refuelling.forward_lag_s if refuelling.forward_lag_s <= 10.0;
     non_negative refuelling.stop_clearance_m;
-    non_negative refuelling.escape_speed_mps;
-    positive refuelling.escape_accel_mps2;
-    holds refuelling.escape_speed_mps
-        if refuelling.escape_speed_mps <= velocity_limits.max_lateral_mps
-            && refuelling.escape_speed_mps <= velocity_limits.max_vertical_mps;
     holds refuelling.feedforward_lead_s if refuelling.feedforward_lead_s <= 5.0;
     non_negative estimator.drogue_swing_period_s;
     positive estimator.drogue_accel_time_constant_s;

@@ -236,9 +236,6 @@ struct Derived {
     refuel_slew_step_mps: [f32; 3],
     /// The same in a missed approach, m/s.
     missed_slew_step_mps: f32,
-    /// Refuelling: the largest step of the right and down command while turning away from
-    /// the capture, m/s.
-    escape_slew_step_mps: f32,
     /// The drogue estimator's discrete model.
     estimator: EstimatorModel,
     /// The probe tip seen from the believed camera.
@@ -277,7 +274,6 @@ impl Derived {
                 ]
             },
             missed_slew_step_mps: cfg.refuelling.missed_accel_mps2 * Controller::PERIOD_S,
-            escape_slew_step_mps: cfg.refuelling.escape_accel_mps2 * Controller::PERIOD_S,
             estimator: EstimatorModel::new(
                 &cfg.estimator,
                 Controller::PERIOD_S,
@@ -355,13 +351,6 @@ pub struct Controller {
     /// Refuelling: the go/no-go gate's depth for that closing speed, where a no-go still
     /// stops short of the drogue plane ([`procedure::commit_depth`]), m.
     commit_depth_m: f32,
-    /// Refuelling: the sideways-and-down velocity `[right, down]` of a turn away from the
-    /// capture, m/s ([`procedure::escape_velocity`], fixed as the capture is left: no chase
-    /// of an estimate the camera may lose), zero after a no-go outside the commit depth.
-    escape_mps: [f32; 2],
-    /// Refuelling: steps of the escape left (it lasts the missed approach's clearing time,
-    /// in a missed approach or a breakaway).
-    escape_steps: u32,
     /// Refuelling: the station's integral on the drogue's mean offset, `[right, down]`, m/s
     /// (reset at engage, kept over the attempts: what it takes out, the navigation's
     /// velocity bias, stays).
@@ -407,8 +396,6 @@ impl Controller {
                 cfg.refuelling.contact_speed_mps,
                 &cfg.refuelling,
             ),
-            escape_mps: [0.0; 2],
-            escape_steps: 0,
             station_integral_mps: [0.0; 2],
             counters: Counters::default(),
         };
@@ -600,34 +587,17 @@ impl Controller {
                 let descend = self.modes.mode_steps() < self.derived.modes.clear_steps();
                 track(
                     if descend || est.depth_m < self.cfg.refuelling.stop_clearance_m {
-                        Forward::Clear {
-                            escape: self.escape(est),
-                            descend,
-                        }
+                        Forward::Clear { descend }
                     } else {
                         Forward::Station
                     },
                 )
             }
-            Mode::Breakaway => {
-                let [right, down] = self.escape(est);
-                VelocityRe {
-                    x_right_mps: right,
-                    y_down_mps: md.breakaway_down_mps + down,
-                    z_fwd_mps: -md.breakaway_aft_mps,
-                }
-            }
-        }
-    }
-
-    /// The escape velocity while it lasts and the tip is short of the plane (`est`), else
-    /// zero: past the plane the tip backs straight out, m/s.
-    #[inline(always)]
-    fn escape(&self, est: &DrogueEstimate) -> [f32; 2] {
-        if self.escape_steps > 0 && est.depth_m > 0.0 {
-            self.escape_mps
-        } else {
-            [0.0; 2]
+            Mode::Breakaway => VelocityRe {
+                x_right_mps: 0.0,
+                y_down_mps: md.breakaway_down_mps,
+                z_fwd_mps: -md.breakaway_aft_mps,
+            },
         }
     }
 
@@ -865,19 +835,7 @@ impl Controller {
                     self.commit_depth_m =
                         procedure::commit_depth(self.contact_mps, &self.cfg.refuelling);
                 }
-                // Turned away inside the commit depth: sideways and down, away from the
-                // drogue where it is now, for the clearing time.
-                (Mode::Terminal, Mode::MissedApproach | Mode::Breakaway) => {
-                    self.escape_mps =
-                        procedure::escape_velocity(refuel.estimate.offset_m, &self.cfg.refuelling);
-                    self.escape_steps = self.derived.modes.clear_steps();
-                }
                 _ => {}
-            }
-            if matches!(mode, Mode::MissedApproach | Mode::Breakaway) {
-                self.escape_steps = self.escape_steps.saturating_sub(1);
-            } else {
-                self.escape_steps = 0;
             }
         }
         let estimate = if paper {
@@ -900,21 +858,6 @@ impl Controller {
         }
         self.v_cmd = if mode == Mode::Standby {
             VelocityRe::ZERO
-        } else if !paper
-            && self.escape_steps > 0
-            && matches!(mode, Mode::Breakaway | Mode::MissedApproach)
-        {
-            // Turning away: sideways at once, down and forward as the mode slews (a faster
-            // push-over took the load factor below zero g in strong air, measured).
-            let other = match mode {
-                Mode::Breakaway => self.derived.breakaway_slew_step_mps,
-                _ => self.derived.missed_slew_step_mps,
-            };
-            outer::slew_axes(
-                &self.v_cmd,
-                &self.mode_velocity(&estimate),
-                [self.derived.escape_slew_step_mps, other, other],
-            )
         } else if paper || matches!(mode, Mode::Breakaway | Mode::MissedApproach) {
             outer::slew(
                 &self.v_cmd,

@@ -184,21 +184,6 @@ pub struct RefuellingConfig {
     /// slower deceleration of a heavier or draggier airframe than the design's (mass up to
     /// 1.3 times: the stop grows by up to about 0.25 m at 1 m/s). Default 0.3 m.
     pub stop_clearance_m: f32,
-    /// After the commit the capture may only go on or turn away sideways and down: a no-go
-    /// or a breakaway from the capture flies this speed away from the drogue (its offset at
-    /// that moment, never up towards the hose) while it clears and until the plane, m/s.
-    /// Default 0: straight back and down. Measured on tuning runs 0..1,999 (`level2`,
-    /// `mil-level2`; successes / unsafe runs / basket strikes / upsets): at 0,
-    /// 1,647 / 65 / 17 / 48 and 1,199 / 420 / 116 / 297; at 0.8 m/s, 1,635 / 71 / 9 / 63
-    /// and 1,123 / 485 / 83 / 410: the turn halves the strikes but this inner loop,
-    /// rolling and pushing over at once in strong air, loses more to upsets (load factor
-    /// below zero g) than the turn saves.
-    pub escape_speed_mps: f32,
-    /// Largest change of the right command while turning away from the capture (the down
-    /// command slews at the mode's own rate), m/s²: the capture may be steering towards the drogue at up to `max_correction_mps`,
-    /// and at the missed approach's `missed_accel_mps2` the reversal alone took most of
-    /// the second left to the plane (measured). Default 4 m/s².
-    pub escape_accel_mps2: f32,
     /// Go: the predicted radial offset at the drogue plane plus `gate_sigmas` standard
     /// deviations is at most this, m.
     pub gate_radius_m: f32,
@@ -329,8 +314,6 @@ impl Default for RefuellingConfig {
             commit_depth_m: 1.0,
             forward_lag_s: 1.7,
             stop_clearance_m: 0.3,
-            escape_speed_mps: 0.0,
-            escape_accel_mps2: 4.0,
             gate_radius_m: 0.45,
             gate_sigmas: 1.0,
             late_gate_radius_m: 0.40,
@@ -384,33 +367,14 @@ pub fn stopping_distance_m(closing_mps: f32, cfg: &RefuellingConfig) -> f32 {
 
 /// The depth of the go/no-go gate for an approach closing at `contact_mps`: where a no-go
 /// still stops `stop_clearance_m` short of the drogue plane ([`stopping_distance_m`]), or
-/// `commit_depth_m` if that is deeper, m. Inside it the capture may only go on or turn
-/// away sideways and down ([`escape_velocity`]).
+/// `commit_depth_m` if that is deeper, m. Inside it the capture may only go on, or back
+/// straight out and down ([`Forward::Clear`]).
 #[inline(always)]
 pub fn commit_depth(contact_mps: f32, cfg: &RefuellingConfig) -> f32 {
     max_to(
         cfg.commit_depth_m,
         stopping_distance_m(contact_mps, cfg) + cfg.stop_clearance_m,
     )
-}
-
-/// The sideways-and-down velocity `[right, down]` of a receiver turning away from the
-/// capture with the drogue at `offset_m` (`[right, down]` from the probe tip): directly
-/// away from the drogue at `escape_speed_mps`, but never up (the hose trails up and forward
-/// from the drogue): with the drogue below the tip it turns away sideways only, and with
-/// the drogue straight below (within 5 cm sideways) to the right, m/s.
-pub fn escape_velocity(offset_m: [f32; 2], cfg: &RefuellingConfig) -> [f32; 2] {
-    let [right, down] = offset_m;
-    // Away from the drogue: the negative of its offset, the upward part dropped.
-    let away = [-right, max_to(-down, 0.0)];
-    let norm = libm::sqrtf(away[0] * away[0] + away[1] * away[1]);
-    if norm < 0.05 {
-        // The drogue (nearly) straight ahead or below: sideways, away from its side.
-        let side = if right > 0.0 { -1.0 } else { 1.0 };
-        return [side * cfg.escape_speed_mps, 0.0];
-    }
-    let k = cfg.escape_speed_mps / norm;
-    [away[0] * k, away[1] * k]
 }
 
 /// What the forward axis does in a mode of the procedure.
@@ -424,12 +388,9 @@ pub enum Forward {
     /// vertical gain rises to `1 / time to go` (at most `1 / capture_min_time_to_go_s`).
     Capture,
     /// Back off at the missed approach's speed, straight back along the approach line (no
-    /// lateral chase of the drogue), adding the escape velocity `[right, down]` (m/s; zero
-    /// after a no-go outside the commit depth, and once past the plane), descending at
-    /// `missed_down_mps` if `descend` (the clearing time).
+    /// lateral chase of the drogue), descending at `missed_down_mps` if `descend` (the
+    /// clearing time).
     Clear {
-        /// The escape velocity `[right, down]`, m/s.
-        escape: [f32; 2],
         /// Descend at `missed_down_mps`.
         descend: bool,
     },
@@ -478,7 +439,7 @@ pub fn desired_velocity(
             (clamp_sym(v, cfg.station_max_speed_mps), 0.0)
         }
         Forward::Contact | Forward::Capture => (contact_mps, 0.0),
-        Forward::Clear { descend, .. } => (
+        Forward::Clear { descend } => (
             -cfg.missed_aft_mps,
             if descend { cfg.missed_down_mps } else { 0.0 },
         ),
@@ -489,21 +450,20 @@ pub fn desired_velocity(
     // campaign); the station adds its integral (the navigation's velocity bias). Closing on
     // it, it follows the drogue itself. Clearing, it follows nothing: it backs straight out
     // (steering towards the drogue's mean position on an estimate coasted out of view put
-    // the probe through the basket while backing off, measured), turning away only by the
-    // escape velocity.
-    let (offset, ff, k, escape) = match fwd {
-        Forward::Station => (e.mean_offset_m, 1.0, k, [0.0; 2]),
-        Forward::Clear { escape, .. } => ([0.0; 2], 0.0, 0.0, escape),
-        Forward::Contact | Forward::Capture => (e.offset_m, cfg.feedforward_gain, k, [0.0; 2]),
+    // the probe through the basket while backing off, measured).
+    let (offset, ff, k) = match fwd {
+        Forward::Station => (e.mean_offset_m, 1.0, k),
+        Forward::Clear { .. } => ([0.0; 2], 0.0, 0.0),
+        Forward::Contact | Forward::Capture => (e.offset_m, cfg.feedforward_gain, k),
     };
     let c = cfg.max_correction_mps;
     VelocityRe {
         x_right_mps: clamp_sym(
-            ff * feedforward_mps[0] + clamp_sym(k * offset[0], c) + escape[0],
+            ff * feedforward_mps[0] + clamp_sym(k * offset[0], c),
             lim.max_lateral_mps,
         ),
         y_down_mps: clamp_sym(
-            ff * feedforward_mps[1] + clamp_sym(k * offset[1], c) + escape[1] + down_bias,
+            ff * feedforward_mps[1] + clamp_sym(k * offset[1], c) + down_bias,
             lim.max_vertical_mps,
         ),
         z_fwd_mps: min_to(
@@ -539,14 +499,7 @@ mod tests {
         let station = cfg.station_gain_per_s * (e.depth_m - cfg.station_depth_m);
         assert!((fwd(Forward::Station) - station).abs() < 1e-6);
         // Clearing: the back-off alone.
-        assert!(
-            (fwd(Forward::Clear {
-                escape: [0.0; 2],
-                descend: true,
-            }) + cfg.missed_aft_mps)
-                .abs()
-                < 1e-6
-        );
+        assert!((fwd(Forward::Clear { descend: true }) + cfg.missed_aft_mps).abs() < 1e-6);
         // Closing on it: the drogue's forward velocity is added to the contact speed.
         for f in [Forward::Contact, Forward::Capture] {
             assert!((fwd(f) - (1.0 + 0.3)).abs() < 1e-6);

@@ -142,15 +142,12 @@ fn the_missed_approach_backs_straight_out_and_descends_whatever_the_drogue_does(
     // 1 m/s aft relative to the tanker (the drogue's 0.2 m/s forward left out); 0.5 m/s
     // down; neither the mean offset nor the feed-forward steers it: no chase of the drogue.
     let e = estimate([1.0, 1.0], [-0.2, 0.4], 0.2, 2.0);
-    let clear = |escape, descend| Forward::Clear { escape, descend };
-    let v = desired_velocity(&e, [0.3, 0.3], clear([0.0; 2], true), 1.0, &rc, &lim);
+    let clear = |descend| Forward::Clear { descend };
+    let v = desired_velocity(&e, [0.3, 0.3], clear(true), 1.0, &rc, &lim);
     assert_velocity(v, [0.0, 0.5, -1.0], "clear");
     // After the clearing time, still inside the plane's margin: straight back, level.
-    let v = desired_velocity(&e, [0.3, 0.3], clear([0.0; 2], false), 1.0, &rc, &lim);
+    let v = desired_velocity(&e, [0.3, 0.3], clear(false), 1.0, &rc, &lim);
     assert_velocity(v, [0.0, 0.0, -1.0], "clear, level");
-    // Turning away from the capture: the escape velocity is added as it is.
-    let v = desired_velocity(&e, [0.3, 0.3], clear([-0.6, 0.2], true), 1.0, &rc, &lim);
-    assert_velocity(v, [-0.6, 0.7, -1.0], "clear with an escape");
 }
 
 #[test]
@@ -165,31 +162,6 @@ fn the_gate_lies_where_a_no_go_still_stops_short_of_the_plane() {
     assert!((slow - rc.commit_depth_m).abs() < 1e-6, "{slow}");
     // A faster approach commits farther out: quadratically.
     assert!(procedure::commit_depth(1.3, &rc) > 3.3);
-}
-
-#[test]
-fn the_escape_turns_away_from_the_drogue_and_never_up() {
-    let rc = RefuellingConfig {
-        escape_speed_mps: 1.0,
-        ..RefuellingConfig::default()
-    };
-    let esc = |r, d| procedure::escape_velocity([r, d], &rc);
-    let close = |v: [f32; 2], w: [f32; 2]| (v[0] - w[0]).abs() < 1e-5 && (v[1] - w[1]).abs() < 1e-5;
-    // Drogue up and to the right: away, left and down, at the escape speed.
-    let s = core::f32::consts::FRAC_1_SQRT_2;
-    assert!(close(esc(0.2, -0.2), [-s, s]), "{:?}", esc(0.2, -0.2));
-    // Drogue below and to the left: right only (never up towards the hose).
-    assert!(close(esc(-0.2, 0.3), [1.0, 0.0]), "{:?}", esc(-0.2, 0.3));
-    // Drogue straight below: sideways, to the right; straight ahead: the same.
-    assert!(close(esc(0.0, 0.3), [1.0, 0.0]));
-    assert!(close(esc(0.0, 0.0), [1.0, 0.0]));
-    // Drogue straight above: down.
-    assert!(close(esc(0.0, -0.3), [0.0, 1.0]));
-    // Off by default: straight back.
-    assert_eq!(
-        procedure::escape_velocity([0.2, -0.2], &RefuellingConfig::default()),
-        [0.0; 2]
-    );
 }
 
 #[test]
@@ -209,10 +181,7 @@ fn every_axis_is_saturated_to_the_velocity_limits() {
         missed_aft_mps: 3.0,
         ..rc
     };
-    let clear = Forward::Clear {
-        escape: [0.0; 2],
-        descend: true,
-    };
+    let clear = Forward::Clear { descend: true };
     let v = desired_velocity(&e, [0.0; 2], clear, 1.0, &fast, &lim);
     assert_velocity(v, [0.0, 0.5, -2.0], "clear, saturated aft");
 }

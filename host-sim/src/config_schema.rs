@@ -377,7 +377,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 44] = [
+        let cases: [(&str, &str); 43] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -493,10 +493,6 @@ mod tests {
             (
                 "refuelling.forward_lag_s",
                 "[refuelling]\nforward_lag_s = 11.0",
-            ),
-            (
-                "refuelling.escape_speed_mps",
-                "[refuelling]\nescape_speed_mps = 2.5",
             ),
             (
                 "refuelling.late_gate_final_radius_m",
