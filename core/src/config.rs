@@ -438,6 +438,10 @@ config_rules! {
         if estimator.activity_time_constant_s >= gains::CONTROL_PERIOD_S;
     holds estimator.mean_time_constant_s
         if estimator.mean_time_constant_s >= gains::CONTROL_PERIOD_S;
+    non_negative estimator.nav_bias_time_constant_s;
+    holds estimator.nav_bias_time_constant_s
+        if estimator.nav_bias_time_constant_s >= gains::CONTROL_PERIOD_S
+            || estimator.nav_bias_time_constant_s == 0.0;
     positive refuelling.station_depth_m;
     positive refuelling.station_gain_per_s;
     positive refuelling.station_max_speed_mps;
@@ -498,7 +502,8 @@ config_rules! {
             <= crate::estimator::MAX_SWING_LEAD_RAD * estimator.drogue_swing_period_s
             || estimator.drogue_swing_period_s == 0.0;
     holds refuelling.gate_max_horizon_s
-        if refuelling.gate_max_horizon_s <= 1.5 * estimator.drogue_time_constant_s;
+        if refuelling.gate_max_horizon_s
+            <= crate::num::EXP_NEG_MAX * estimator.drogue_time_constant_s;
     holds refuelling.contact_speed_mps
         if refuelling.contact_speed_mps <= velocity_limits.max_closing_mps;
     holds refuelling.rough_air_contact_speed_mps

@@ -46,7 +46,7 @@ use crate::mode::{
     RefuelInputs,
 };
 use crate::nav::{EnvelopeBits, NavError, NavSample};
-use crate::num::{clamp_sym, max_to};
+use crate::num::{self, clamp_sym, max_to, min_to};
 use crate::outer::{self, OuterOutput};
 use crate::predictor::LatencyPredictor;
 use crate::procedure::{self, Forward, Procedure};
@@ -236,6 +236,13 @@ struct Derived {
     refuel_slew_step_mps: [f32; 3],
     /// The same in a missed approach, m/s.
     missed_slew_step_mps: f32,
+    /// The navigation's velocity-bias estimate's memory, control periods
+    /// (`nav_bias_time_constant_s / Ts`; 0: off).
+    nav_bias_memory_steps: f32,
+    /// Its memory at the first step learnt, control periods (the drogue estimator's
+    /// velocity correlation time `drogue_time_constant_s`: before it, the estimated
+    /// velocity says little).
+    nav_bias_first_steps: f32,
     /// The drogue estimator's discrete model.
     estimator: EstimatorModel,
     /// The probe tip seen from the believed camera.
@@ -265,6 +272,8 @@ impl Derived {
             slew_step_mps: cfg.velocity_limits.max_accel_mps2 * Controller::PERIOD_S,
             breakaway_slew_step_mps: cfg.modes.breakaway_accel_mps2 * Controller::PERIOD_S,
             terminal_slew_step_mps: cfg.modes.terminal_accel_mps2 * Controller::PERIOD_S,
+            nav_bias_memory_steps: cfg.estimator.nav_bias_time_constant_s / Controller::PERIOD_S,
+            nav_bias_first_steps: cfg.estimator.drogue_time_constant_s / Controller::PERIOD_S,
             refuel_slew_step_mps: {
                 let track = cfg.refuelling.track_accel_mps2 * Controller::PERIOD_S;
                 [
@@ -355,6 +364,12 @@ pub struct Controller {
     /// (reset at engage, kept over the attempts: what it takes out, the navigation's
     /// velocity bias, stays).
     station_integral_mps: [f32; 2],
+    /// Refuelling: the navigation's velocity bias `[right, down, forward]` as the station
+    /// estimates it from the drogue's mean estimated velocity, m/s (reset at engage, kept
+    /// over the attempts; `EstimatorConfig::nav_bias_time_constant_s`).
+    nav_bias_mps: [f32; 3],
+    /// Refuelling: steps the bias has been learnt since engage.
+    nav_bias_steps: u32,
     counters: Counters,
 }
 
@@ -397,6 +412,8 @@ impl Controller {
                 &cfg.refuelling,
             ),
             station_integral_mps: [0.0; 2],
+            nav_bias_mps: [0.0; 3],
+            nav_bias_steps: 0,
             counters: Counters::default(),
         };
         c.set_design(d);
@@ -493,6 +510,13 @@ impl Controller {
         &self.counters
     }
 
+    /// Refuelling: the navigation's velocity bias `[right, down, forward]` as the station
+    /// has estimated it, m/s (zero before engage, under the paper's procedure, or with
+    /// `estimator.nav_bias_time_constant_s` 0).
+    pub fn nav_bias_mps(&self) -> [f32; 3] {
+        self.nav_bias_mps
+    }
+
     /// The drogue's RMS lateral speed as the estimator measures it, m/s: above
     /// `refuelling.rough_air_drogue_speed_mps` the air is rough (the approach's closing
     /// speed and the station's offset tolerance). It starts at the configured drogue PSD's
@@ -564,14 +588,21 @@ impl Controller {
                 Forward::Station => self.station_integral_mps,
                 Forward::Clear { .. } => [0.0; 2],
             };
-            procedure::desired_velocity(
+            let v = procedure::desired_velocity(
                 est,
                 feedforward,
                 fwd,
                 self.contact_mps,
                 &self.cfg.refuelling,
                 &self.cfg.velocity_limits,
-            )
+            );
+            // The inner loops hold the velocity the navigation reports: ask for the bias too.
+            let b = &self.nav_bias_mps;
+            VelocityRe {
+                x_right_mps: v.x_right_mps + b[0],
+                y_down_mps: v.y_down_mps + b[1],
+                z_fwd_mps: v.z_fwd_mps + b[2],
+            }
         };
         match self.modes.mode() {
             Mode::Standby | Mode::Docked => VelocityRe::ZERO,
@@ -695,13 +726,13 @@ impl Controller {
         let [a, b] = self
             .estimator
             .predict_offset(h, tip_lateral_mps, &self.derived.estimator);
-        let mean = libm::sqrtf(a.mean_m * a.mean_m + b.mean_m * b.mean_m);
+        let mean = num::sqrt(a.mean_m * a.mean_m + b.mean_m * b.mean_m);
         let var = if a.variance_m2 >= b.variance_m2 {
             a.variance_m2
         } else {
             b.variance_m2
         };
-        mean + rc.gate_sigmas * libm::sqrtf(max_to(var, 0.0))
+        mean + rc.gate_sigmas * num::sqrt(max_to(var, 0.0))
     }
 
     /// The status bits of a step with something to flag, and the counts of it.
@@ -784,11 +815,15 @@ impl Controller {
             };
             (none, fresh.map(|o| o.target), None)
         } else {
-            let tip = point_velocity_tanker_mps(
+            let nav_tip = point_velocity_tanker_mps(
                 &self.last_nav,
                 &self.scheduled.trim,
                 self.cfg.probe_tip_body_m,
             );
+            // The tip's velocity relative to the tanker, the navigation's estimated bias
+            // taken out: what the estimator and the gates reason with.
+            let b = &self.nav_bias_mps;
+            let tip = [nav_tip[0] - b[0], nav_tip[1] - b[1], nav_tip[2] - b[2]];
             self.observe_drogue(&feature, input.measurement.probe_tip, tip)
         };
 
@@ -824,6 +859,8 @@ impl Controller {
                         self.estimator.start(fr, &self.cfg.estimator);
                     }
                     self.station_integral_mps = [0.0; 2];
+                    self.nav_bias_mps = [0.0; 3];
+                    self.nav_bias_steps = 0;
                 }
                 // Each approach closes at the speed the air it starts in asks for, kept to
                 // its end (docs/conventions.md, "The refuelling procedure").
@@ -854,6 +891,26 @@ impl Controller {
                     *b + ts * rc.station_integral_gain_per_s2 * r,
                     rc.station_max_integral_mps,
                 );
+            }
+            // The navigation's velocity bias: what remains of the drogue's estimated velocity
+            // (the tip's velocity already has the estimate taken out) is its error; the
+            // drogue's own mean velocity relative to the tanker is zero. Learnt at the
+            // station only, where the receiver holds still behind the drogue for seconds
+            // (closing, the drogue's swing is followed and does not average out): the
+            // running mean since engage, its memory growing from the estimator's
+            // correlation time to `nav_bias_time_constant_s`, then fading at that.
+            let memory = self.derived.nav_bias_memory_steps;
+            if memory > 0.0 {
+                self.nav_bias_steps = self.nav_bias_steps.saturating_add(1);
+                let learnt = self.nav_bias_steps as f32 + self.derived.nav_bias_first_steps;
+                let a = 1.0 / min_to(learnt, memory);
+                for (b, v) in self
+                    .nav_bias_mps
+                    .iter_mut()
+                    .zip(estimate.drogue_velocity_mps)
+                {
+                    *b += a * v;
+                }
             }
         }
         self.v_cmd = if mode == Mode::Standby {

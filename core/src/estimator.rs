@@ -97,6 +97,21 @@ pub struct EstimatorConfig {
     /// Time constant of the average offset ([`DrogueEstimate::mean_offset_m`]), s: longer
     /// than the drogue's swing's correlation time.
     pub mean_time_constant_s: f32,
+    /// Time constant of the navigation's velocity-bias estimate, s; 0 turns it off.
+    ///
+    /// The drogue is towed: relative to the tanker its mean velocity is zero. Its
+    /// estimated velocity comes from the camera's offsets and the probe tip's velocity as
+    /// the navigation reports it, so a steady part of it is the navigation's velocity
+    /// error. Holding the station, the controller integrates the estimated drogue velocity
+    /// over this time into its estimate of that bias, takes the bias out of the tip's
+    /// velocity before the estimator and the mode logic use it, and adds it to the velocity
+    /// it asks of the inner loops (which hold the velocity the navigation reports). Default
+    /// 20 s: five of the hose's 3.9 s swings (the swing's velocity passes through the
+    /// average at a thirtieth of its amplitude), short beside the sortie's 150 s. Without
+    /// it an industrial-grade INS's velocity bias (0.1 m/s, one sigma) left the receiver off
+    /// the drogue at the station or closing, and most of those sorties ended at the station
+    /// or after four no-gos (`docs/conventions.md`, "Navigation bias").
+    pub nav_bias_time_constant_s: f32,
     /// Consecutive rejected frames after which the filter restarts from the frame.
     pub max_rejections: u16,
     /// Largest distance of the probe tip's measured image point from where the configured
@@ -134,6 +149,7 @@ impl Default for EstimatorConfig {
             gate_sigmas: 6.0,
             activity_time_constant_s: 4.0,
             mean_time_constant_s: 2.0,
+            nav_bias_time_constant_s: 20.0,
             max_rejections: 5,
             tip_sight_tolerance: 0.06,
             tip_sight_filter: 0.05,
@@ -665,7 +681,7 @@ impl DrogueEstimator {
     /// The drogue's RMS lateral speed as measured (the square root of the larger axis's
     /// velocity-variance average), m/s: how hard the air drives it.
     pub fn drogue_speed_rms_mps(&self) -> f32 {
-        libm::sqrtf(max_to(max_to(self.activity[0], self.activity[1]), 0.0))
+        crate::num::sqrt(max_to(max_to(self.activity[0], self.activity[1]), 0.0))
     }
 
     /// The PSD the air drives the drogue with, as measured, `[right, down]`, m²/s³.
@@ -689,7 +705,7 @@ impl DrogueEstimator {
     /// The offset `horizon_s` ahead if the probe tip kept the velocity `tip_velocity_mps`
     /// (`[right, down]`) and nothing were measured, with its variance: the estimate's own,
     /// carried over the horizon, plus the drogue's unpredictable motion over it at the
-    /// measured PSD. One exponential.
+    /// measured PSD. One exponential (`num::exp_neg`) and one division.
     #[inline(always)]
     pub fn predict_offset(
         &self,
@@ -698,7 +714,9 @@ impl DrogueEstimator {
         m: &EstimatorModel,
     ) -> [AxisPrediction; 2] {
         let (h, tau) = (horizon_s, m.tau_s);
-        let f = libm::expf(-h / tau);
+        // `h / τ` is within `num::EXP_NEG_MAX`: the horizon is at most `gate_max_horizon_s`,
+        // which the configuration's validation keeps within 1.5 τ.
+        let f = crate::num::exp_neg(h / tau);
         let g = tau * (1.0 - f);
         [0, 1].map(|i| {
             let ax = &self.axes[i];

@@ -529,6 +529,9 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
             _ => 0.0,
         };
         depth -= closing * Controller::PERIOD_S;
+        // The navigation bias the step will take out of the tip's velocity: the one learnt
+        // up to the step before (`docs/conventions.md`, "Navigation bias").
+        let bias = s.ctl.nav_bias_mps();
         let out = s.step([x, y, depth], closing);
         // The frame the controller saw, as its estimator takes it.
         let z = depth + s.tip[2];
@@ -542,7 +545,8 @@ fn the_gates_figure_is_the_predicted_radial_offset_plus_its_sigmas() {
         };
         let mut nav = NavSample::default();
         nav.lon.v_mps = closing;
-        let tip = point_velocity_tanker_mps(&nav, &TRIM, cfg.probe_tip_body_m);
+        let reported = point_velocity_tanker_mps(&nav, &TRIM, cfg.probe_tip_body_m);
+        let tip: [f32; 3] = core::array::from_fn(|i| reported[i] - bias[i]);
         if twin.started() {
             twin.predict(tip, &model);
             twin.correct(&frame, &cfg.estimator);

@@ -377,7 +377,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 43] = [
+        let cases: [(&str, &str); 44] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -449,6 +449,10 @@ mod tests {
             (
                 "estimator.mean_time_constant_s",
                 "[estimator]\nmean_time_constant_s = 0.01",
+            ),
+            (
+                "estimator.nav_bias_time_constant_s",
+                "[estimator]\nnav_bias_time_constant_s = 0.01",
             ),
             (
                 "refuelling.station_clear_offset_m",
