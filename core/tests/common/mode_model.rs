@@ -489,17 +489,25 @@ pub struct Model {
     /// speed, chosen from the air as it starts), m.
     commit_depth: f64,
     filter: Option<Filter>,
+    /// The navigation's velocity bias as the station has learnt it (`docs/conventions.md`,
+    /// "Navigation bias"), m/s, and the steps it has been learnt since engage.
+    nav_bias: [f64; 3],
+    nav_bias_steps: u32,
 }
 
 impl Model {
     /// The same state as `other` but for numbers within a relative 1e-9 of each other (far
     /// inside [`EPS`]): two branches that have converged are followed as one.
     fn same_as(&self, other: &Self) -> bool {
-        let filters = match (&self.filter, &other.filter) {
-            (Some(a), Some(b)) => a.near(b, 1e-9),
-            (None, None) => true,
-            _ => false,
-        };
+        // In breakaway the estimator's state (its filter, the bias learnt) decides nothing
+        // until the next engage restarts it: two breakaways differing only there are one.
+        let dead = self.mode == Mode::Breakaway && other.mode == Mode::Breakaway;
+        let filters = dead
+            || match (&self.filter, &other.filter) {
+                (Some(a), Some(b)) => a.near(b, 1e-9),
+                (None, None) => true,
+                _ => false,
+            };
         let discrete = |m: &Self| {
             (
                 m.last_seq,
@@ -514,7 +522,17 @@ impl Model {
                 m.commit_depth.to_bits(),
             )
         };
-        filters && discrete(self) == discrete(other)
+        // The bias is a running mean with a 20 s memory: two branches whose filters
+        // differed for a step keep slightly different biases for minutes. Within a
+        // micrometre per second they are one (a hundredth of the decision band's floor,
+        // `EPS_ABS`, on the speeds the bias enters).
+        let bias = self
+            .nav_bias
+            .iter()
+            .zip(&other.nav_bias)
+            .all(|(a, b)| (a - b).abs() <= 1e-2 * EPS_ABS);
+        let learnt = dead || (bias && self.nav_bias_steps == other.nav_bias_steps);
+        filters && learnt && discrete(self) == discrete(other)
     }
 }
 
@@ -555,6 +573,8 @@ impl Model {
             sortie_steps: 0,
             commit_depth: commit_depth(&cfg, cfg.refuelling.contact_speed_mps),
             filter: None,
+            nav_bias: [0.0; 3],
+            nav_bias_steps: 0,
         }
     }
 
@@ -847,7 +867,9 @@ impl Model {
         // The drogue estimator's step: predict with the probe tip's velocity, correct with
         // a valid frame (turned into the drogue's offset from the tip).
         let tip_body = f3(cfg.probe_tip_body_m);
-        let tip = point_velocity_mps(&self.last_nav, &self.design, tip_body);
+        // The tip's velocity with the navigation's learnt bias taken out.
+        let reported = point_velocity_mps(&self.last_nav, &self.design, tip_body);
+        let tip: [f64; 3] = std::array::from_fn(|i| reported[i] - self.nav_bias[i]);
         let frame = meas_ok.then(|| {
             let (m, n) = (&input.measurement, &self.last_nav);
             let t = tip_from_camera(&cfg);
@@ -1042,8 +1064,21 @@ impl Model {
             (_, Mode::Standby) => self.filter = None,
             (Mode::Standby, Mode::PreContact) => {
                 self.filter = frame.map(|(r, z)| Filter::restart(&cfg, r, z, None));
+                (self.nav_bias, self.nav_bias_steps) = ([0.0; 3], 0);
             }
             _ => {}
+        }
+        // Holding the station, the bias is learnt from the drogue's estimated velocity (as
+        // it was before this step's mode change): the running mean since engage, its memory
+        // growing from the drogue model's correlation time to the bias's time constant.
+        let memory = f(cfg.estimator.nav_bias_time_constant_s) / f(Controller::PERIOD_S);
+        if self.mode == Mode::PreContact && memory > 0.0 {
+            self.nav_bias_steps += 1;
+            let first = f(cfg.estimator.drogue_time_constant_s) / f(Controller::PERIOD_S);
+            let a = 1.0 / (f64::from(self.nav_bias_steps) + first).min(memory);
+            for (b, v) in self.nav_bias.iter_mut().zip(velocity) {
+                *b += a * v;
+            }
         }
         refused
     }
