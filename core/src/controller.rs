@@ -794,15 +794,17 @@ impl Controller {
 
         // 2. Measurement, 3. outer loop: the paper's law (its output is kept, i.e. held, until
         // the next valid one), or the refuelling procedure's drogue estimator. The mode
-        // logic's overspeed check and the integrators use the design output `C x` of the
-        // tracked point (the camera's, or the probe tip's in the refuelling procedure); the
-        // estimator takes the probe tip's velocity by exact kinematics instead (the linear
-        // output is off by up to 0.5 m/s while the receiver manoeuvres, which the estimator's
-        // drogue velocity would inherit; `kinematics::point_velocity_tanker_mps`).
+        // logic's overspeed check uses the design output `C x` of the tracked point (the
+        // camera's, or the probe tip's in the refuelling procedure), and so do the paper's
+        // integrators; under the refuelling procedure the estimator and the integrators take
+        // the probe tip's velocity by exact kinematics instead (the linear output is off by up
+        // to 0.5 m/s while the receiver manoeuvres, which the estimator's drogue velocity
+        // would inherit, and it turns the INS's attitude errors into a steady velocity error
+        // the integrators cannot see; `kinematics::point_velocity_tanker_mps`).
         let feature = self.observe_measurement(&input.measurement);
         let paper = self.cfg.procedure == Procedure::Paper;
         let (y_lon, y_lat) = (self.lon.output(&x_lon), self.lat.output(&x_lat));
-        let (refuel, target, frame) = if paper {
+        let (refuel, target, frame, tracked) = if paper {
             let fresh = feature.ok().map(|f| self.outer_law(&f));
             if let Some(o) = fresh
                 && matches!(self.modes.mode(), Mode::Standby | Mode::Approach)
@@ -813,7 +815,7 @@ impl Controller {
                 predicted_miss_m: f32::INFINITY,
                 ..RefuelInputs::default()
             };
-            (none, fresh.map(|o| o.target), None)
+            (none, fresh.map(|o| o.target), None, (y_lon, y_lat))
         } else {
             let nav_tip = point_velocity_tanker_mps(
                 &self.last_nav,
@@ -824,8 +826,16 @@ impl Controller {
             // taken out: what the estimator and the gates reason with.
             let b = &self.nav_bias_mps;
             let tip = [nav_tip[0] - b[0], nav_tip[1] - b[1], nav_tip[2] - b[2]];
-            self.observe_drogue(&feature, input.measurement.probe_tip, tip)
+            let (refuel, target, frame) =
+                self.observe_drogue(&feature, input.measurement.probe_tip, tip);
+            // The integrators hold the tip's velocity as the exact kinematics have it from
+            // the navigation (the estimator's, before the bias is taken out), not the design's
+            // linear output: that one mixes the INS's attitude errors into the velocity
+            // (a heading error, which cancels in the track, enters `C x` through the
+            // unequal weights of heading and sideslip).
+            (refuel, target, frame, ([nav_tip[1], nav_tip[2]], [nav_tip[0]]))
         };
+        let (y_lon_held, y_lat_held) = tracked;
 
         // 4. Mode logic.
         let before = self.modes.mode();
@@ -979,7 +989,7 @@ impl Controller {
         let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
             let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
             let lon = self.lon.integrate(
-                &y_lon,
+                &y_lon_held,
                 &[v_des.y_down_mps, v_des.z_fwd_mps],
                 &[s[0], s[1]],
                 ts,
@@ -987,7 +997,7 @@ impl Controller {
             );
             let lat = self
                 .lat
-                .integrate(&y_lat, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
+                .integrate(&y_lat_held, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
             (lon, lat)
         } else {
             (false, false)
