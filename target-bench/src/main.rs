@@ -255,8 +255,8 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         ),
         (
             "turbulence",
-            "mil-level2 seed 2: MIL-F-8785C 10^-2 turbulence, a no-go on the first approach, a missed approach, docks on the second",
-            preset("mil-level2", 2, |_| {})?,
+            "mil-level2 seed 4: MIL-F-8785C 10^-2 turbulence, a no-go on the first approach, a missed approach, docks on the second",
+            preset("mil-level2", 4, |_| {})?,
             vec![],
             "docked",
         ),
