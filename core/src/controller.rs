@@ -830,10 +830,16 @@ impl Controller {
                 self.observe_drogue(&feature, input.measurement.probe_tip, tip);
             // The integrators hold the tip's velocity as the exact kinematics have it from
             // the navigation (the estimator's, before the bias is taken out), not the design's
-            // linear output: that one mixes the INS's attitude errors into the velocity
-            // (a heading error, which cancels in the track, enters `C x` through the
-            // unequal weights of heading and sideslip).
-            (refuel, target, frame, ([nav_tip[1], nav_tip[2]], [nav_tip[0]]))
+            // linear output, which leaves out the products of states (a steady bank times the
+            // sideslip velocity, when the receiver flies crabbed and banked), the roll and yaw
+            // rates' coupling through the tip's lateral offset, and takes the bank's term at
+            // the design's trim (`docs/conventions.md`, "Inner loops for refuelling").
+            (
+                refuel,
+                target,
+                frame,
+                ([nav_tip[1], nav_tip[2]], [nav_tip[0]]),
+            )
         };
         let (y_lon_held, y_lat_held) = tracked;
 

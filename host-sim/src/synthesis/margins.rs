@@ -173,10 +173,13 @@ impl Margins {
 /// The core's controller, in `f64`: the matrices `Controller::step` multiplies.
 #[derive(Debug, Clone)]
 pub struct FlownController {
-    /// Longitudinal `K_x` (2 x 5), `K_a` (2 x 2), `K_q` (2 x 2), `C` (2 x 5).
-    lon: [DMatrix<f64>; 4],
-    /// Lateral `K_x` (2 x 5), `K_a` (2 x 2), `K_q` (2 x 1), `C` (1 x 5).
-    lat: [DMatrix<f64>; 4],
+    /// Longitudinal `K_x` (2 x 5), `K_a` (2 x 2), `K_q` (2 x 2).
+    lon: [DMatrix<f64>; 3],
+    /// Lateral `K_x` (2 x 5), `K_a` (2 x 2), `K_q` (2 x 1).
+    lat: [DMatrix<f64>; 3],
+    /// What the integrators hold, rows `[down, forward, right]` over the ten design states
+    /// `[theta, V, alpha, q, P, psi, phi, beta, p, r]` (`tracked_output`).
+    c_tracked: DMatrix<f64>,
     /// The longitudinal predictor's `(Phi, Gamma)`: measured 4, then engine and elevator.
     predict_lon: (DMatrix<f64>, DMatrix<f64>),
     /// The lateral predictor's: measured 5, then aileron and rudder.
@@ -209,6 +212,52 @@ fn predictor<const NM: usize, const NE: usize, const NU: usize>(
     (phi, gamma)
 }
 
+/// What the integrators hold, linearised at the trim of `d`: rows `[down, forward, right]`
+/// over the ten design states `[theta, V, alpha, q, P, psi, phi, beta, p, r]`.
+///
+/// The paper's procedure integrates the design's output `C x` of the tracked point (the
+/// generated `c_cg` with the lever arm), block by block. The refuelling procedure integrates
+/// the tip's velocity by exact kinematics (`kinematics::point_velocity_tanker_mps`), whose
+/// linearisation differs in two ways: the bank's term of the lateral row is `-V sin(alpha)`
+/// at the trim the controller adds the states to (the refuelling design's `c_cg` has it 5 %
+/// smaller), and the tip's lateral offset `y` couples the roll and yaw rates into the
+/// vertical and forward velocities (`omega x p`: down `+cos(theta) y p + sin(theta) y r`,
+/// forward `+sin(theta) y p - cos(theta) y r`), which the channels' design leaves out.
+fn tracked_output(d: &DesignPoint, procedure: Procedure, p_body_m: [f32; 3]) -> DMatrix<f64> {
+    let mut c = DMatrix::zeros(3, 10);
+    match procedure {
+        Procedure::Paper => {
+            let lon = mat(&d.lon.c_cg) + mat(&lever_arm_lon(p_body_m, d.trim.theta_rad));
+            let lat = mat(&d.lat.c_cg) + mat(&lever_arm_lat(p_body_m));
+            c.view_mut((0, 0), (2, 5)).copy_from(&lon);
+            c.view_mut((2, 5), (1, 5)).copy_from(&lat);
+        }
+        Procedure::Refuelling => {
+            let (v, th, al) = (
+                f64::from(d.trim.speed_mps),
+                f64::from(d.trim.theta_rad),
+                f64::from(d.trim.alpha_rad),
+            );
+            let [x, y, z] = p_body_m.map(f64::from);
+            let (cg, sg) = ((th - al).cos(), (th - al).sin());
+            let (ct, st) = (th.cos(), th.sin());
+            #[rustfmt::skip]
+            let rows = [
+                // theta, V, alpha, q, P, psi, phi, beta, p, r
+                [-v * cg, -sg, v * cg, -(st * z) - ct * x, 0.0, 0.0, 0.0, 0.0, ct * y, st * y],
+                [-v * sg, cg, v * sg, ct * z - st * x, 0.0, 0.0, 0.0, 0.0, st * y, -ct * y],
+                [0.0, 0.0, 0.0, 0.0, 0.0, v * cg, -v * al.sin(), v, -z, x],
+            ];
+            for (r, row) in rows.iter().enumerate() {
+                for (j, &e) in row.iter().enumerate() {
+                    c[(r, j)] = e;
+                }
+            }
+        }
+    }
+    c
+}
+
 impl FlownController {
     /// The controller `cfg` configures, flying the design `d` (as `Controller::set_design`
     /// builds its loops).
@@ -217,21 +266,19 @@ impl FlownController {
             Procedure::Paper => (cfg.camera.position_body_m, &d.lon, &d.lat),
             Procedure::Refuelling => (cfg.probe_tip_body_m, &d.refuel_lon, &d.refuel_lat),
         };
-        let c_lon = mat(&lon.c_cg) + mat(&lever_arm_lon(tracked, d.trim.theta_rad));
-        let c_lat = mat(&lat.c_cg) + mat(&lever_arm_lat(tracked));
+        let c_tracked = tracked_output(d, cfg.procedure, tracked);
         Self {
             lon: [
                 mat(&lon.k_state),
                 mat(&lon.k_actuator),
                 mat(&lon.k_integral),
-                c_lon,
             ],
             lat: [
                 mat(&lat.k_state),
                 mat(&lat.k_actuator),
                 mat(&lat.k_integral),
-                c_lat,
             ],
+            c_tracked,
             predict_lon: predictor(&d.predict_lon),
             predict_lat: predictor(&d.predict_lat),
             engine: (f64::from(d.engine.pole), f64::from(d.engine.gain_pct)),
@@ -492,10 +539,12 @@ impl FlownLoop<'_> {
         // The integrators read the late sample (with the engine estimate), not the prediction.
         let mut x_lon_late = lon_late.to_vec();
         x_lon_late.push(p_hat);
-        let y_lon = mul(&c.lon[3], &x_lon_late);
-        let y_lat = mul(&c.lat[3], lat_late);
+        let mut x_late = x_lon_late;
+        x_late.extend_from_slice(lat_late);
+        let y = mul(&c.c_tracked, &x_late);
+        let (y_lon, y_lat) = (&y[..2], &y[2..]);
         let ts = CONTROL_PERIOD_S;
-        let dq_lon = sub(&y_lon, &v_des[..2]);
+        let dq_lon = sub(y_lon, &v_des[..2]);
         o[l.q] = q_lon[0] + ts * dq_lon[0];
         o[l.q + 1] = q_lon[1] + ts * dq_lon[1];
         o[l.q + 2] = q_lat[0] + ts * (y_lat[0] - v_des[2]);
