@@ -426,6 +426,56 @@ fn the_station_integrates_a_steady_offset_and_starts_again_from_zero_at_engage()
 }
 
 #[test]
+fn the_station_takes_a_steady_drift_for_the_navigations_bias_and_flies_it_out() {
+    // The navigation reports the receiver still; the frames show the drogue moving right of
+    // the tip at 0.02 m/s: a receiver drifting left that the INS does not see (a velocity
+    // error of +0.02 m/s, right). The drogue has no mean velocity of its own, so the station
+    // learns 0.02 m/s as the navigation's bias (`docs/conventions.md`, "Navigation bias"):
+    // the running mean since engage, `b = v n / (n + n1)` for `n` steps with the memory
+    // starting at the drogue model's `n1` = 1.3 s / 20 ms = 65 steps, until the memory
+    // reaches 20 s (1,000 steps), then fading. The desired velocity carries it.
+    let drift = 0.02_f32;
+    let fly = |tau_s: f32| {
+        let mut cfg = ControllerConfig::default();
+        cfg.estimator.nav_bias_time_constant_s = tau_s;
+        let mut s = Sortie {
+            ctl: Controller::new(cfg).expect("valid configuration"),
+            ..Sortie::new()
+        };
+        let mut learnt = Vec::new();
+        for k in 0..2000 {
+            let out = s.step([0.3 + drift * k as f32 * 0.02, 0.0, 3.6], 0.0);
+            assert_eq!(out.mode, Mode::PreContact, "step {k}");
+            learnt.push((s.ctl.nav_bias_mps(), out.v_des));
+        }
+        learnt
+    };
+    let on = fly(20.0);
+    // After 10 s the running mean is near 500 / 565 of the drift (the filter's velocity
+    // settles in its first second); after 40 s the fading memory is within 3 % of it.
+    let (b10, b40) = (on[499].0, on[1999].0);
+    let mean10 = drift * 500.0 / 565.0;
+    assert!(
+        (b10[0] - mean10).abs() < 0.1 * drift,
+        "10 s: {b10:?}, about {mean10}"
+    );
+    assert!((b40[0] - drift).abs() < 0.03 * drift, "40 s: {b40:?}");
+    assert!(
+        b40[1].abs() < 0.05 * drift && b40[2].abs() < 0.05 * drift,
+        "{b40:?}"
+    );
+    // Off: nothing is learnt, and the same frames ask for less lateral velocity (the bias
+    // is what the station adds to fly the drift out).
+    let off = fly(0.0);
+    assert!(off.iter().all(|(b, _)| *b == [0.0; 3]));
+    let (with, without) = (on[1999].1.x_right_mps, off[1999].1.x_right_mps);
+    assert!(
+        (with - without - b40[0]).abs() < 0.2 * drift,
+        "{with} with the bias, {without} without"
+    );
+}
+
+#[test]
 fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the_station() {
     let mut s = Sortie::to_approach();
     let rc = s.ctl.config().refuelling;
