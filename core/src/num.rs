@@ -1,4 +1,5 @@
-//! Cheap, exact replacements for the library calls the control step used to make.
+//! Cheap replacements, exact or within a stated error, for the library calls the control
+//! step used to make.
 //!
 //! Place in the data flow: none of its own; every stage of the step uses these instead of
 //! `f32::min`/`f32::max` (a library call on the Cortex-M4, `fminf`/`fmaxf`) and
@@ -20,9 +21,14 @@
 //!   meets (attitude, flow angles, mount pitch: at most [`SIN_COS_MAX_RAD`], which the
 //!   configuration's validation enforces): `libm`'s `sinf`/`cosf` with their argument
 //!   reduction took 11 KB of flash.
+//! - [`sqrt`] and [`exp_neg`]: not bit-exact but within one and 2.5 units in the last place
+//!   of `libm`'s: `libm::sqrtf` computes in integers (about 50 instructions; `core` has no
+//!   safe way to the FPU's square root) and `libm::expf` reduces its argument (53), where
+//!   these take about 14 and 26 on the step's path (the gate's figure and prediction).
 //!
-//! Invariant: no loops, no recursion, no panics, no allocation (the construction of a
-//! [`HypotLimit`] loops a fixed 32 times per threshold).
+//! Invariant: no data-dependent loops, no recursion, no panics, no allocation (the
+//! construction of a [`HypotLimit`] loops a fixed 32 times per threshold, [`exp_neg`]'s
+//! Horner scheme a fixed 11 times).
 
 /// Largest angle [`sin_cos`] is used for, rad (46 degrees).
 pub const SIN_COS_MAX_RAD: f32 = 0.8;

@@ -238,21 +238,38 @@ fn tracked_output(d: &DesignPoint, procedure: Procedure, p_body_m: [f32; 3]) -> 
                 f64::from(d.trim.theta_rad),
                 f64::from(d.trim.alpha_rad),
             );
-            let [x, y, z] = p_body_m.map(f64::from);
+            let p = p_body_m.map(f64::from);
+            let y = p[1];
             let (cg, sg) = ((th - al).cos(), (th - al).sin());
             let (ct, st) = (th.cos(), th.sin());
+            // The CG's velocity (the rotation of V, alpha, beta by the attitude), and the
+            // lever arm's pitch-rate (longitudinal) and roll- and yaw-rate (lateral) terms
+            // as the core computes them for `C x`.
             #[rustfmt::skip]
-            let rows = [
+            let cg_rows = [
                 // theta, V, alpha, q, P, psi, phi, beta, p, r
-                [-v * cg, -sg, v * cg, -(st * z) - ct * x, 0.0, 0.0, 0.0, 0.0, ct * y, st * y],
-                [-v * sg, cg, v * sg, ct * z - st * x, 0.0, 0.0, 0.0, 0.0, st * y, -ct * y],
-                [0.0, 0.0, 0.0, 0.0, 0.0, v * cg, -v * al.sin(), v, -z, x],
+                [-v * cg, -sg, v * cg, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                [-v * sg, cg, v * sg, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, 0.0, 0.0, 0.0, v * cg, -v * al.sin(), v, 0.0, 0.0],
             ];
-            for (r, row) in rows.iter().enumerate() {
+            for (r, row) in cg_rows.iter().enumerate() {
                 for (j, &e) in row.iter().enumerate() {
                     c[(r, j)] = e;
                 }
             }
+            for (r, row) in lever_arm_lon(p, th).iter().enumerate() {
+                for (j, &e) in row.iter().enumerate() {
+                    c[(r, j)] += e;
+                }
+            }
+            for (j, &e) in lever_arm_lat(p)[0].iter().enumerate() {
+                c[(2, 5 + j)] += e;
+            }
+            // The lateral offset's cross terms, which the channels' lever arms leave out.
+            c[(0, 8)] = ct * y;
+            c[(0, 9)] = st * y;
+            c[(1, 8)] = st * y;
+            c[(1, 9)] = -ct * y;
         }
     }
     c
