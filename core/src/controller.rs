@@ -955,7 +955,8 @@ impl Controller {
         let trim = self.scheduled.trim.command();
         let open_loop = mode == Mode::Breakaway && !nav_valid;
         let requested = if mode == Mode::Standby {
-            // Engage assumes trimmed formation flight: integrators and engine model at zero.
+            // Standby: integrators and engine model at zero, the trim commanded (the
+            // refuelling procedure preloads its integrators at engage, below).
             self.lon.reset();
             self.lat.reset();
             self.engine.reset();
@@ -977,14 +978,20 @@ impl Controller {
                 .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
             // The actuators' deflections from the predictors' models of the commands sent
             // (longitudinal: engine, elevator; lateral: aileron, rudder; `gains`).
-            let elevator = self.predict_lon.unmeasured()[1];
-            let [e, th] = self
-                .lon
-                .control(&[theta, v, alpha, q, x_lon[4]], &[elevator, 0.0]);
-            let [a, r] = self.lat.control(
-                &self.predict_lat.predict(x_lat),
-                self.predict_lat.unmeasured(),
-            );
+            let x_lon = [theta, v, alpha, q, x_lon[4]];
+            let a_lon = [self.predict_lon.unmeasured()[1], 0.0];
+            let x_lat = self.predict_lat.predict(x_lat);
+            let a_lat = self.predict_lat.unmeasured();
+            if before == Mode::Standby && !paper {
+                // Bumpless engage (`inner`): the first engaged command is the Standby
+                // command, the integrators taking up the receiver's offset from the design
+                // trim.
+                let lim = self.cfg.integrator_limit_m;
+                self.lon.preload(&x_lon, &a_lon, lim);
+                self.lat.preload(&x_lat, a_lat, lim);
+            }
+            let [e, th] = self.lon.control(&x_lon, &a_lon);
+            let [a, r] = self.lat.control(&x_lat, a_lat);
             [e, th, a, r]
         };
         let (command, sat) = self.cfg.actuators.saturate(requested, trim);

@@ -21,6 +21,10 @@
 //! actuators' lag as states and feeds them back; the paper's does not (`K_a = 0`). `C = C_cg + C_lever(p_cam)`: the CG part is generated, the lever-arm part is
 //! computed from the believed camera position ([`crate::kinematics`]).
 //!
+//! Engage: under the refuelling procedure the integrators are preloaded at the first engaged
+//! step so that the law returns the trim inputs ([`Channel::preload`]): a bumpless transfer
+//! from the Standby command. The paper's procedure starts them at zero.
+//!
 //! Anti-windup: conditional integration. An integrator is frozen in a step when any actuator
 //! of its channel is saturated and that integrator's update would push the actuator further
 //! into its limit. Integrators are also clamped to `+/- integrator_limit_m`.
@@ -265,6 +269,55 @@ impl<const NX: usize, const NY: usize, const NU: usize> Channel<NX, NY, NU> {
     }
 }
 
+/// `-(K_x x + K_a a)`: what the integrators' term `K_q q` must be for the law to return the
+/// trim inputs (a bumpless engage).
+#[inline(always)]
+fn engage_residual<const NX: usize, const NY: usize, const NU: usize>(
+    ch: &Channel<NX, NY, NU>,
+    x: &[f32; NX],
+    a: &[f32; NU],
+) -> [f32; NU] {
+    core::array::from_fn(|i| -(dot(&ch.k_x[i], x) + dot(&ch.k_a[i], a)))
+}
+
+impl<const NX: usize> Channel<NX, 2, 2> {
+    /// Bumpless engage: sets the integrators so that [`Channel::control`] of `x` and `a`
+    /// returns the trim inputs, `K_q q = -(K_x x + K_a a)` (solved exactly: two integrators,
+    /// two inputs), each clamped to `+/- limit_m`. The receiver engages trimmed as it is, not
+    /// as the design's airframe would be (another mass or cg, the navigation's attitude
+    /// error): the state's offset from the design trim is then no error to correct in one
+    /// step, and the integrators start where their steady state will have them. A singular
+    /// `K_q` (or a non-finite result) leaves the integrators at zero.
+    pub fn preload(&mut self, x: &[f32; NX], a: &[f32; 2], limit_m: f32) {
+        let d = engage_residual(self, x, a);
+        let k = &self.k_q;
+        let det = k[0][0] * k[1][1] - k[0][1] * k[1][0];
+        let q = [
+            (d[0] * k[1][1] - k[0][1] * d[1]) / det,
+            (k[0][0] * d[1] - k[1][0] * d[0]) / det,
+        ];
+        let finite = q.iter().all(|v| v.is_finite());
+        self.q = SVector::from(q.map(|v| if finite { clamp_sym(v, limit_m) } else { 0.0 }));
+    }
+}
+
+impl<const NX: usize> Channel<NX, 1, 2> {
+    /// Bumpless engage with one integrator and two inputs: the integrator that brings the
+    /// law's two inputs nearest the trim (least squares, `q = K_q^T d / K_q^T K_q` with
+    /// `d = -(K_x x + K_a a)`), clamped to `+/- limit_m`; zero if `K_q` is zero or the
+    /// result not finite. See the two-integrator [`Channel::preload`].
+    pub fn preload(&mut self, x: &[f32; NX], a: &[f32; 2], limit_m: f32) {
+        let d = engage_residual(self, x, a);
+        let (k0, k1) = (self.k_q[0][0], self.k_q[1][0]);
+        let q = (k0 * d[0] + k1 * d[1]) / (k0 * k0 + k1 * k1);
+        self.q = SVector::from([if q.is_finite() {
+            clamp_sym(q, limit_m)
+        } else {
+            0.0
+        }]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -380,6 +433,83 @@ mod tests {
         // The same update with input 0 at its lower limit deepens it: frozen.
         assert!(ch.integrate(&v1(1.0), &v1(0.0), &[-1, 0], 0.02, 10.0));
         assert!((ch.integrators()[0] - 0.02).abs() < 1e-7);
+    }
+
+    fn two_by_two() -> Channel<2, 2, 2> {
+        let g = ChannelGains {
+            k_state: [[-45.0, 39.0], [15.0, -16.0]],
+            k_actuator: [[0.5, 0.0], [0.002, 0.0]],
+            k_integral: [[0.9, 0.066], [-0.18, 0.97]],
+            c_cg: [[1.0, 0.0], [0.0, 1.0]],
+        };
+        Channel::new(&g, &[[0.0; 2]; 2], [-0.01, 0.16])
+    }
+
+    #[test]
+    fn a_preloaded_channel_commands_the_trim_at_engage() {
+        // A receiver trimmed 1 deg below the design's angle of attack and pitch, its
+        // elevator 0.02 rad off: without the preload the law kicks the elevator by 0.06 rad.
+        let (x, a) = ([-0.0175, -0.0175], [0.02, 0.0]);
+        let mut ch = two_by_two();
+        let kick = ch.control(&x, &a);
+        assert!((kick[0] - (-0.01)).abs() > 0.05, "{kick:?}");
+        ch.preload(&x, &a, 20.0);
+        let u = ch.control(&x, &a);
+        assert!(
+            (u[0] - (-0.01)).abs() < 1e-6 && (u[1] - 0.16).abs() < 1e-6,
+            "{u:?}"
+        );
+        // The integrators are what the law needs, within their clamp.
+        ch.preload(&x, &a, 1e-3);
+        assert!(ch.integrators().iter().all(|q| q.abs() <= 1e-3));
+        assert!(ch.integrators().iter().any(|q| q.abs() == 1e-3));
+    }
+
+    #[test]
+    fn a_one_integrator_preload_is_the_least_squares_one() {
+        let g = ChannelGains {
+            k_state: [[2.0], [1.0]],
+            k_actuator: [[0.0, 0.0], [0.0, 0.0]],
+            k_integral: [[0.5], [-1.0]],
+            c_cg: [[1.0]],
+        };
+        let mut ch = Channel::<1, 1, 2>::new(&g, &[[0.0]], [0.0, 0.0]);
+        ch.preload(&[0.3], &[0.0, 0.0], 20.0);
+        // d = [-0.6, -0.3]; q = (0.5 (-0.6) + (-1) (-0.3)) / 1.25 = 0.
+        assert_eq!(ch.integrators()[0], 0.0);
+        ch.preload(&[0.3], &[0.1, 0.0], 20.0);
+        assert_eq!(
+            ch.integrators()[0],
+            0.0,
+            "no actuator gain: the deflection is ignored"
+        );
+        let g2 = ChannelGains {
+            k_integral: [[0.5], [1.0]],
+            ..g
+        };
+        let mut ch = Channel::<1, 1, 2>::new(&g2, &[[0.0]], [0.0, 0.0]);
+        ch.preload(&[0.3], &[0.0, 0.0], 20.0);
+        // q = (0.5 (-0.6) + 1 (-0.3)) / 1.25 = -0.48: the residual is orthogonal to K_q.
+        let q = ch.integrators()[0];
+        assert!((q + 0.48).abs() < 1e-6, "{q}");
+        let u = ch.control(&[0.3], &[0.0, 0.0]);
+        assert!((0.5 * u[0] + 1.0 * u[1]).abs() < 1e-6, "{u:?}");
+    }
+
+    #[test]
+    fn a_singular_or_non_finite_preload_leaves_the_integrators_at_zero() {
+        let g = ChannelGains {
+            k_state: [[1.0], [1.0]],
+            k_actuator: [[0.0, 0.0], [0.0, 0.0]],
+            k_integral: [[1.0, 2.0], [2.0, 4.0]],
+            c_cg: [[1.0], [1.0]],
+        };
+        let mut ch = Channel::<1, 2, 2>::new(&g, &[[0.0], [0.0]], [0.0, 0.0]);
+        ch.preload(&[0.3], &[0.0, 0.0], 20.0);
+        assert_eq!(*ch.integrators(), SVector::<f32, 2>::zeros());
+        let mut ch = two_by_two();
+        ch.preload(&[f32::NAN, 0.0], &[0.0, 0.0], 20.0);
+        assert_eq!(*ch.integrators(), SVector::<f32, 2>::zeros());
     }
 
     #[test]

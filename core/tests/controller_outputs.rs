@@ -911,3 +911,40 @@ fn a_standby_trim_outside_a_limit_is_reported_saturated() {
     );
     assert_eq!(ctl.counters().saturated_steps, 1);
 }
+
+#[test]
+fn the_refuelling_procedure_engages_bumplessly_and_the_papers_does_not() {
+    // A receiver trimmed as the design's airframe is not (another mass or cg, or the
+    // navigation's pitch error): 1 deg below the design's pitch and angle of attack, level.
+    // Under the refuelling procedure the first engaged command is the Standby command, the
+    // trim (the integrators take the offset up, `inner`); the paper's procedure, which starts
+    // its integrators at zero, kicks the elevator by the law's `K_x x`.
+    let mut nav = NavSample::default();
+    nav.lon.theta_rad = -0.0175;
+    nav.lon.alpha_rad = -0.0175;
+    let mut first = Vec::new();
+    for cfg in [ControllerConfig::default(), ControllerConfig::paper()] {
+        let mut ctl = Controller::new(cfg).expect("valid configuration");
+        let standby = ctl.step(&approach_input(1, ModeRequest::None, nav));
+        assert_eq!(standby.mode, Mode::Standby);
+        assert_eq!(standby.command.as_array(), TRIM.command());
+        let engaged = ctl.step(&approach_input(2, ModeRequest::Engage, nav));
+        assert_ne!(engaged.mode, Mode::Standby, "{:?}", cfg.procedure);
+        first.push((engaged.command.as_array(), ctl.integrators_m()));
+    }
+    let trim = TRIM.command();
+    let (refuel, q_refuel) = first[0];
+    let (paper, q_paper) = first[1];
+    // Elevator and throttle: two integrators for two inputs, exact to rounding.
+    for i in 0..2 {
+        assert!((refuel[i] - trim[i]).abs() < 1e-5, "{refuel:?} vs {trim:?}");
+    }
+    // Aileron and rudder: level, nothing lateral to take up.
+    for i in 2..4 {
+        assert!((refuel[i] - trim[i]).abs() < 1e-6, "{refuel:?} vs {trim:?}");
+    }
+    assert!(q_refuel[..2].iter().any(|q| q.abs() > 1e-3), "{q_refuel:?}");
+    // The paper's kick, and its integrators at zero but for the step's own update.
+    assert!((paper[0] - trim[0]).abs() > 0.05, "{paper:?} vs {trim:?}");
+    assert!(q_paper.iter().all(|q| q.abs() < 1e-3), "{q_paper:?}");
+}

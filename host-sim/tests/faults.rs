@@ -393,9 +393,10 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
         "paper, aileron at 2.9 deg/s",
     );
     // Without the elevator, the aileron or the throttle the receiver loses the drogue from
-    // the image (the elevator: `MeasurementLost` at 5.50 s, 3.67 m from the drogue, never
-    // reaching the plane; the aileron: it rolls off, `MeasurementLost` at 7.64 s since the
-    // station moved out to 3.6 m, `NavLost` before), or runs through its pre-contact station
+    // the image or the navigation's envelope (the elevator: `MeasurementLost` at 5.50 s,
+    // 3.67 m from the drogue, never reaching the plane; the aileron: it rolls off and leaves
+    // the navigation's envelope, `NavLost` at 5.94 s; before the bumpless engage the drogue
+    // left the image first, `MeasurementLost` at 7.64 s), or runs through its pre-contact station
     // (the throttle): breakaway, before reaching the drogue plane. (With the refuelling design that did not carry the actuators the
     // stuck elevator ran through its station instead, `StationOverrun` at 9.88 s; before the
     // station's integral and the swing feed-forward it lost the drogue at 5.62 s; with the
@@ -403,12 +404,13 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     // crossed the plane 12.0 m from the centre.)
     // Known gaps (the referee, watching 15 s of each breakaway): without the aileron, or
     // with a slow elevator or aileron, the breakaway ends in an upset (load factor below 0 g
-    // or above 2 g). With the throttle stuck nothing stops the closing: it overruns the
-    // station (5.42 s, 2.45 m from the drogue, closing at 1.31 m/s), passes the drogue
-    // 2.0 m off (1.87 m above it) and its radome comes within 1.72 m of the hose exit, in
-    // the tanker's keep-out sphere (with the integrators on the design's linear output it
-    // stuck at a lower throttle, overran at 6.52 s and the referee saw no hazard; with the
-    // station at 3 m it passed the drogue 1.969 m off into the sphere).
+    // or above 2 g). A stuck throttle is caught by whatever it leads to, and that depends on
+    // where it sticks: stuck near the trim (the engage is bumpless) the receiver falls back,
+    // loses the drogue from the image 58 m behind it (`MeasurementLost` at 27.88 s) and the
+    // referee sees nothing; stuck at the higher command the engage's elevator kick left it at,
+    // it overran the station (5.42 s, 2.45 m from the drogue, closing at 1.31 m/s), passed the
+    // drogue 2.0 m off and its radome came within 1.72 m of the hose exit, in the tanker's
+    // keep-out sphere. No monitor watches the throttle (docs/faults.md, "Known gaps").
     let cases: [(Flown, &str, &str, &[HazardKind]); 5] = [
         (
             stuck(Actuator::Elevator),
@@ -418,15 +420,15 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
         ),
         (
             stuck(Actuator::Aileron),
-            "MeasurementLost",
+            "NavLost",
             "aileron stuck",
             &[HazardKind::Upset],
         ),
         (
             stuck(Actuator::Throttle),
-            "StationOverrun",
+            "MeasurementLost",
             "throttle stuck",
-            &[HazardKind::TankerProximity],
+            &[],
         ),
         (
             slow(Actuator::Elevator, 0.05),
@@ -443,8 +445,8 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     ];
     for (f, reason, what, gap) in &cases {
         assert_broke_away(f, reason, what, gap);
-        // Only the stuck throttle reaches the drogue plane, after its breakaway, more than
-        // 1 m from the centre.
+        // None reaches the drogue plane but, if at all, the stuck throttle, after its
+        // breakaway, more than 1 m from the centre.
         if let Some(c) = f.run.contact {
             assert!(
                 *what == "throttle stuck",
