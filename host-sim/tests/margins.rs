@@ -28,7 +28,7 @@ const MEASURED: [usize; 9] = [0, 1, 2, 3, 5, 6, 7, 8, 9];
 /// The initial perturbation: 10 design coordinates `[theta, V, alpha, q, P, psi, phi, beta,
 /// p, r]`, then the three surfaces at trim. Small: no command reaches a limit, and the
 /// refuelling integrators' exact kinematics stay linear to within the agreement (their
-/// third-order terms: 2.7e-4 of the peak command measured at this size, 6.6e-4 at three
+/// third-order terms: 2.7e-4 of the peak command measured at this size, 6.7e-4 at three
 /// times it; the second order cancels in `core_against_model`).
 const X0: [f64; 13] = [
     1e-4, 5e-3, 1e-4, 2e-4, 0.0, 1e-4, 2e-4, 1e-4, 3e-4, -1e-4, 0.0, 0.0, 0.0,
