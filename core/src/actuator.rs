@@ -46,10 +46,11 @@ impl ActuatorCommand {
     }
 }
 
-/// Position limits of each command, absolute.
+/// Position limits of each command, absolute, and the surfaces' rate limits.
 ///
 /// Defaults are the F-16's (Stevens, Lewis & Johnson App. A; docs/models.md, "Actuators"):
-/// elevator +/-25 deg, aileron +/-21.5 deg, rudder +/-30 deg, throttle 0..1.
+/// elevator +/-25 deg and 60 deg/s, aileron +/-21.5 deg and 80 deg/s, rudder +/-30 deg and
+/// 120 deg/s, throttle 0..1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ActuatorLimits {
@@ -57,6 +58,10 @@ pub struct ActuatorLimits {
     pub min: [f32; 4],
     /// Upper limits, same order.
     pub max: [f32; 4],
+    /// Rate limits of the surfaces `[elevator, aileron, rudder]`, rad/s: the controller's
+    /// model of its own actuators (the latency predictor's, whose deflections the refuelling
+    /// design feeds back) moves no faster than the surfaces can.
+    pub rate_radps: [f32; 3],
 }
 
 impl Default for ActuatorLimits {
@@ -69,6 +74,11 @@ impl Default for ActuatorLimits {
         Self {
             min: [-el, 0.0, -ail, -rud],
             max: [el, 1.0, ail, rud],
+            rate_radps: [
+                60.0_f32.to_radians(),
+                80.0_f32.to_radians(),
+                120.0_f32.to_radians(),
+            ],
         }
     }
 }

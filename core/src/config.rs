@@ -322,6 +322,11 @@ fn ordered(a: &ActuatorLimits) -> bool {
         .all(|(lo, hi)| lo.is_finite() && hi.is_finite() && *lo < hi)
 }
 
+/// Every surface's rate limit is finite and positive.
+fn rates_positive(a: &ActuatorLimits) -> bool {
+    a.rate_radps.iter().all(|r| r.is_finite() && *r > 0.0)
+}
+
 /// Every channel's trim command lies inside its limits.
 fn holds_trim(a: &ActuatorLimits) -> bool {
     let trim = trim_command();
@@ -411,6 +416,7 @@ config_rules! {
     holds modes.breakaway_aft_mps if modes.breakaway_aft_mps <= velocity_limits.max_closing_mps;
     holds actuators.min if ordered(actuators);
     holds actuators.max if holds_trim(actuators);
+    holds actuators.rate_radps if rates_positive(actuators);
     positive integrator_limit_m;
     holds nav_latency_steps if *nav_latency_steps <= MAX_NAV_LATENCY_STEPS;
     positive estimator.drogue_time_constant_s;

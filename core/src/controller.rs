@@ -383,13 +383,24 @@ impl Controller {
         let derived = Derived::new(&cfg)?;
         let d = &schedule::DESIGN;
         let u = d.trim.command();
+        let rate = cfg.actuators.rate_radps;
         let mut c = Self {
             // Replaced by `set_design` below: one place builds the loops from a design.
             lon: Channel::new(&d.lon, &[[0.0; 5]; 2], [u[0], u[1]]),
             lat: Channel::new(&d.lat, &[[0.0; 5]; 1], [u[2], u[3]]),
             engine: EngineEstimate::new(d.engine),
-            predict_lon: LatencyPredictor::new(d.predict_lon, cfg.nav_latency_steps),
-            predict_lat: LatencyPredictor::new(d.predict_lat, cfg.nav_latency_steps),
+            // The unmeasured states: lon [engine power (its own lag, no rate limit), elevator],
+            // lat [aileron, rudder].
+            predict_lon: LatencyPredictor::new(
+                d.predict_lon,
+                cfg.nav_latency_steps,
+                [f32::INFINITY, rate[0] * CONTROL_PERIOD_S],
+            ),
+            predict_lat: LatencyPredictor::new(
+                d.predict_lat,
+                cfg.nav_latency_steps,
+                [rate[1] * CONTROL_PERIOD_S, rate[2] * CONTROL_PERIOD_S],
+            ),
             cfg,
             derived,
             modes: ModeMachine::default(),

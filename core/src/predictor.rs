@@ -15,11 +15,14 @@
 //! e[j+1] =                            Phi_ee e[j] + Gamma_e u[j]    actuators, engine
 //! ```
 //!
-//! from the late sample `m[k-d]` and its own record of `e[k-d]` and of the commands
-//! `u[k-d] .. u[k-1]` it sent (perturbations from trim, after saturation), `d` times, to
-//! `m[k]`. The unmeasured rows do not depend on the measured states (checked when the model
-//! is generated), so `e` is a running open-loop model of the controller's own commands,
-//! like the engine estimate.
+//! from the late sample `m[k-d]` and its own record of the commands `u[k-d] .. u[k-1]` it
+//! sent (perturbations from trim, after saturation) and of `e[k-d] .. e[k-1]`, `d` times,
+//! to `m[k]`. The unmeasured rows do not depend on the measured states (checked when the
+//! model is generated), so `e` is a running open-loop model of the controller's own
+//! commands, like the engine estimate; each of its steps moves a surface's deflection by
+//! at most the surface's rate limit times the period (`ActuatorLimits::rate_radps`), as the
+//! surface itself moves, and the prediction reads the recorded `e` rather than stepping a
+//! second model of it.
 //!
 //! What the model does not know (a steady wind in the tanker's wake, a sensor bias, another
 //! cg) makes a steady state look like a slow change, and the prediction carries it on: a
@@ -41,6 +44,7 @@
 //! actuators', the heading's at 1).
 
 use crate::inner::dot;
+use crate::num::clamp_sym;
 
 /// Largest navigation latency the predictor compensates, control periods (80 ms at 50 Hz).
 pub const MAX_NAV_LATENCY_STEPS: u8 = 4;
@@ -88,12 +92,16 @@ pub struct LatencyPredictor<const NM: usize, const NE: usize, const NU: usize> {
     /// Steps recorded since the last reset, at most RING: older entries read as trim (the
     /// reset does not clear the ring, so that the step calls no library fill).
     recorded: usize,
+    /// Largest change of each unmeasured state in one step (the actuators' rate limits).
+    rate_step: [f32; NE],
 }
 
 impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE, NU> {
     /// A predictor at trim for `latency_steps` (clamped to [`MAX_NAV_LATENCY_STEPS`]; the
-    /// configuration's validation refuses more).
-    pub fn new(model: PlantModel<NM, NE, NU>, latency_steps: u8) -> Self {
+    /// configuration's validation refuses more), each unmeasured state moving by at most
+    /// `rate_step[i]` per step (the surfaces' rate limits times the period; infinite for the
+    /// engine, whose power lag is its own limit; not NaN).
+    pub fn new(model: PlantModel<NM, NE, NU>, latency_steps: u8, rate_step: [f32; NE]) -> Self {
         Self {
             model,
             latency: usize::from(latency_steps.min(MAX_NAV_LATENCY_STEPS)),
@@ -101,6 +109,7 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
             ring: [([0.0; NE], [0.0; NU]); RING],
             head: 0,
             recorded: 0,
+            rate_step,
         }
     }
 
@@ -126,17 +135,17 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
         }
         // A fixed sequence of calls, not a loop: the step's static time bound admits no
         // data-dependent loop, and one out-of-line body keeps the flash small.
-        let (mut m, mut e) = (m_late, self.entry(d - 1).0);
+        let mut m = m_late;
         if d > 3 {
-            (m, e) = self.advance(m, e, 3);
+            m = self.advance(m, 3);
         }
         if d > 2 {
-            (m, e) = self.advance(m, e, 2);
+            m = self.advance(m, 2);
         }
         if d > 1 {
-            (m, e) = self.advance(m, e, 1);
+            m = self.advance(m, 1);
         }
-        self.advance(m, e, 0).0
+        self.advance(m, 0)
     }
 
     /// The ring's entry `i` (step k-1-i); before the last reset, trim (all zero).
@@ -149,16 +158,18 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
         }
     }
 
-    /// The model's step from `(m, e)` under the command of entry `i`.
+    /// The measured states' model step from `m` under entry `i`'s record: the command sent
+    /// and the unmeasured states when it was sent (the running model's, rate limits
+    /// included: the prediction sees the deflections [`Self::record`] had).
     #[inline(never)]
-    fn advance(&self, m: [f32; NM], e: [f32; NE], i: usize) -> ([f32; NM], [f32; NE]) {
+    fn advance(&self, m: [f32; NM], i: usize) -> [f32; NM] {
         let mdl = &self.model;
-        let u = self.entry(i).1;
+        let (e, u) = self.entry(i);
         let dm = add(
             add(mul(&mdl.delta_mm, &m), mul(&mdl.phi_me, &e)),
             mul(&mdl.gamma_m, &u),
         );
-        (add(m, dm), add(mul(&mdl.phi_ee, &e), mul(&mdl.gamma_e, &u)))
+        add(m, dm)
     }
 
     /// The unmeasured states now, `e[k]` (perturbations from trim): the model's engine
@@ -182,8 +193,19 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
                 self.recorded += 1;
             }
         }
+        // The model's step, each state's change clamped to its rate limit: the surfaces move
+        // at most that fast, and a model without the limit runs ahead of a rate-limited
+        // surface (the deflection fed back is then one the surface never reached). Where no
+        // limit acts the step is the model's to the bit.
         let mdl = &self.model;
-        self.e_now = add(mul(&mdl.phi_ee, &self.e_now), mul(&mdl.gamma_e, &u));
+        let mut next = add(mul(&mdl.phi_ee, &self.e_now), mul(&mdl.gamma_e, &u));
+        for ((n, e), r) in next.iter_mut().zip(self.e_now).zip(self.rate_step) {
+            let change = *n - e;
+            if change > r || change < -r {
+                *n = e + clamp_sym(change, r);
+            }
+        }
+        self.e_now = next;
     }
 
     /// Back to trim: no command sent, actuators at trim.
@@ -196,6 +218,9 @@ impl<const NM: usize, const NE: usize, const NU: usize> LatencyPredictor<NM, NE,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No rate limit on the unmeasured state.
+    const FREE: [f32; 1] = [f32::INFINITY];
 
     /// A scalar plant `m' = 0.9 m + 0.5 e + 0.1 u`, `e' = 0.8 e + 0.2 u`.
     fn model() -> PlantModel<1, 1, 1> {
@@ -228,7 +253,7 @@ mod tests {
         let u = |k: usize| ((k as f32) * 0.7).sin();
         let m: [f32; 30] = truth(u);
         for d in 1..=MAX_NAV_LATENCY_STEPS {
-            let mut p = LatencyPredictor::new(model(), d);
+            let mut p = LatencyPredictor::new(model(), d, FREE);
             let d = usize::from(d);
             for k in 0..30 {
                 let late = if k >= d { m[k - d] } else { 0.0 };
@@ -248,21 +273,21 @@ mod tests {
 
     #[test]
     fn without_latency_the_sample_passes_unchanged_and_only_the_model_advances() {
-        let mut p = LatencyPredictor::new(model(), 0);
+        let mut p = LatencyPredictor::new(model(), 0, FREE);
         p.record([3.0]);
         assert_eq!(p.predict([0.25]), [0.25]);
         // e' = 0.8 e + 0.2 u from trim.
         assert_eq!(p.unmeasured(), &[0.2 * 3.0]);
         assert_eq!(p.recorded, 0);
         p.reset();
-        assert_eq!(p, LatencyPredictor::new(model(), 0));
+        assert_eq!(p, LatencyPredictor::new(model(), 0, FREE));
     }
 
     #[test]
     fn the_unmeasured_states_follow_the_commands_at_any_latency() {
         let u = |k: usize| ((k as f32) * 0.3).cos();
         for d in 0..=MAX_NAV_LATENCY_STEPS {
-            let mut p = LatencyPredictor::new(model(), d);
+            let mut p = LatencyPredictor::new(model(), d, FREE);
             let mut e = 0.0f32;
             for k in 0..12 {
                 assert!((p.unmeasured()[0] - e).abs() < 1e-6, "d {d} k {k}");
@@ -274,7 +299,7 @@ mod tests {
 
     #[test]
     fn reset_forgets_the_commands_sent() {
-        let mut p = LatencyPredictor::new(model(), 2);
+        let mut p = LatencyPredictor::new(model(), 2, FREE);
         p.record([1.0]);
         p.record([1.0]);
         assert_ne!(p.predict([0.0]), [0.0]);
@@ -284,12 +309,12 @@ mod tests {
 
     #[test]
     fn after_a_reset_the_predictor_is_as_new() {
-        let mut used = LatencyPredictor::new(model(), 3);
+        let mut used = LatencyPredictor::new(model(), 3, FREE);
         for k in 0..7 {
             used.record([k as f32]);
         }
         used.reset();
-        let mut fresh = LatencyPredictor::new(model(), 3);
+        let mut fresh = LatencyPredictor::new(model(), 3, FREE);
         for k in 0..5 {
             assert_eq!(used.predict([0.5]), fresh.predict([0.5]), "step {k}");
             used.record([0.3 * k as f32]);
@@ -303,7 +328,7 @@ mod tests {
         // under the command recorded, m + (Phi_mm - I) m + Phi_me e + Gamma_m u with e = 0
         // (the actuators at trim when the command was sent). After the gain schedule's
         // follow-up the new model makes it: 2 - 0.5 * 2 + 0.3 * 1 = 1.3 (the old one: 1.9).
-        let mut p = LatencyPredictor::new(model(), 1);
+        let mut p = LatencyPredictor::new(model(), 1, FREE);
         p.record([1.0]);
         p.set_model(PlantModel {
             delta_mm: [[-0.5]],
@@ -317,7 +342,43 @@ mod tests {
 
     #[test]
     fn a_latency_above_the_maximum_is_clamped() {
-        let p = LatencyPredictor::new(model(), 200);
+        let p = LatencyPredictor::new(model(), 200, FREE);
         assert_eq!(p.latency_steps(), usize::from(MAX_NAV_LATENCY_STEPS));
+    }
+
+    #[test]
+    fn the_unmeasured_states_move_no_faster_than_their_rate_limit() {
+        // e' = 0.8 e + 0.2 u: a command of 1 asks for 0.2 in the first step; limited to 0.05
+        // per step the state ramps 0.05, 0.10, .. until the model's own step is smaller
+        // (0.8 e + 0.2 - e < 0.05 from e = 0.75), then follows the model exactly.
+        let mut p = LatencyPredictor::new(model(), 1, [0.05]);
+        let mut e = 0.0f32;
+        for k in 0..40 {
+            p.record([1.0]);
+            let model_step = 0.8 * e + 0.2;
+            e = if model_step - e > 0.05 {
+                e + 0.05
+            } else {
+                model_step
+            };
+            assert!(
+                (p.unmeasured()[0] - e).abs() < 1e-6,
+                "k {k}: {} vs {e}",
+                p.unmeasured()[0]
+            );
+        }
+        assert!((e - 1.0).abs() < 1e-3, "settled at {e}");
+        // The prediction over the latency steps the state the same way: from the late
+        // sample 0, one step under the recorded command 1 with the recorded e.
+        let mut q = LatencyPredictor::new(model(), 2, [0.05]);
+        q.record([1.0]);
+        q.record([1.0]);
+        // m1 = 0.9*0 + 0.5*0 + 0.1*1 = 0.1 (e[k-2] = 0); e1 = 0.05 (limited from 0.2);
+        // m2 = 0.9*0.1 + 0.5*0.05 + 0.1*1 = 0.215.
+        assert!(
+            (q.predict([0.0])[0] - 0.215).abs() < 1e-6,
+            "{:?}",
+            q.predict([0.0])
+        );
     }
 }

@@ -377,7 +377,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 44] = [
+        let cases: [(&str, &str); 45] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -428,6 +428,10 @@ mod tests {
             (
                 "actuators.max",
                 "[actuators]\nmax = [0.43, 0.001, 0.37, 0.52]",
+            ),
+            (
+                "actuators.rate_radps",
+                "[actuators]\nrate_radps = [1.0, 0.0, 2.0]",
             ),
             ("nav_latency_steps", "nav_latency_steps = 5"),
             (
