@@ -534,6 +534,11 @@ config_rules! {
                 );
     holds refuelling.station_overrun_m
         if refuelling.station_overrun_m > refuelling.station_depth_tol_m;
+    // The depth hold's largest speed run on over the forward loop's lag stays within the
+    // station's overrun limit: the receiver stops on the station, not through it.
+    holds refuelling.station_max_speed_mps
+        if refuelling.station_max_speed_mps * refuelling.forward_lag_s
+            <= refuelling.station_overrun_m;
     holds refuelling.max_attempts if refuelling.max_attempts >= 1;
     holds refuelling.feedforward_gain if refuelling.feedforward_gain <= 1.0;
     holds refuelling.station_dwell_s if refuelling.station_dwell_s < HOUR_S;

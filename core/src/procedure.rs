@@ -79,7 +79,17 @@ pub struct RefuellingConfig {
     pub station_integral_gain_per_s2: f32,
     /// Largest speed the station's integral may add, m/s.
     pub station_max_integral_mps: f32,
-    /// Largest closing or opening speed of the depth hold, m/s.
+    /// Largest closing or opening speed of the depth hold, m/s. The receiver must be able
+    /// to stop on the station without running through its overrun limit: after the depth
+    /// hold's command comes down, the tip runs on for the forward loop's lag at the speed it
+    /// had (`forward_lag_s`, 1.7 s), so the speed times that lag must stay within
+    /// `station_overrun_m` (a validated rule): 1.0 m / 1.7 s = 0.59 m/s. Default 0.55 m/s.
+    /// It was 1.5 m/s: the hold, asking about 1 m/s from the engage 6 m out, overshot to
+    /// 1.36 m/s and ran 1.1 m through the station (`StationOverrun`). Measured on tuning runs
+    /// 0..1,999 (1.5 → 0.55 m/s; sortie successes, `StationOverrun` breakaways): `level1`
+    /// 1,973 → 1,993, 20 → 0; `level2` 1,964 → 1,988, 26 → 0; `envelope` 1,929 → 1,950,
+    /// 22 → 0; `mil-level2` 1,570 → 1,659, 123 → 21; unsafe runs 8 → 7, 11 → 12, 49 → 50,
+    /// 299 → 301; the mean time to dock unchanged (21.1 s in `level2`).
     pub station_max_speed_mps: f32,
     /// Stable at the station: radial offset of the drogue's mean position (its swing
     /// averaged, [`crate::estimator::DrogueEstimate::mean_offset_m`]) from the probe tip at
@@ -291,7 +301,7 @@ impl Default for RefuellingConfig {
         Self {
             station_depth_m: 3.6,
             station_gain_per_s: 0.4,
-            station_max_speed_mps: 1.5,
+            station_max_speed_mps: 0.55,
             station_integral_gain_per_s2: 0.01,
             station_max_integral_mps: 0.2,
             station_offset_tol_m: 0.15,

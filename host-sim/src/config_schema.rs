@@ -377,7 +377,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 45] = [
+        let cases: [(&str, &str); 46] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -517,6 +517,10 @@ mod tests {
             (
                 "refuelling.station_overrun_m",
                 "[refuelling]\nstation_overrun_m = 0.2",
+            ),
+            (
+                "refuelling.station_max_speed_mps",
+                "[refuelling]\nstation_max_speed_mps = 1.0",
             ),
             ("refuelling.max_attempts", "[refuelling]\nmax_attempts = 0"),
             (
