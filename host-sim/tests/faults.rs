@@ -371,10 +371,10 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     assert_docked(&slow(Actuator::Rudder, 0.01), "rudder at 0.6 deg/s");
     // The refuelling procedure's faster lateral design needs more aileron rate than 2.9 deg/s
     // for the move to the station (2 m across): the receiver rolls off and leaves the
-    // navigation's envelope (`NavLost` at 3.92 s; the drogue left the image first,
+    // navigation's envelope (`NavLost` at 3.68 s; the drogue left the image first,
     // `MeasurementLost` at 2.84 s, while the integrators held the design's linear output).
     // The paper's slower design flies it through.
-    // Known gap: the upset (load factor below 0 g at 2.16 s, then above 2 g).
+    // Known gap: the upset (load factor above 2 g at 2.78 s).
     assert_broke_away(
         &slow(Actuator::Aileron, 0.05),
         "NavLost",
@@ -397,7 +397,7 @@ fn stuck_or_slow_surfaces_are_flown_through_or_end_in_a_breakaway() {
     // reaching the drogue plane (the elevator: `StationOverrun` at 6.40 s, 2.73 m from the
     // drogue, closing at 1.29 m/s, and the breakaway, flown without the elevator, passes the
     // drogue plane 21 m below it; with the station's speed at 1.5 m/s the drogue left the
-    // image first, `MeasurementLost` at 5.50 s, 3.67 m from the drogue; the aileron: it rolls
+    // image first, `MeasurementLost`, docs/faults.md; the aileron: it rolls
     // off and leaves the navigation's envelope, `NavLost`; before the bumpless engage the
     // drogue left the image first, `MeasurementLost` at 7.64 s; the throttle:
     // `StationOverrun`). (With the refuelling design that did not carry the actuators the
@@ -468,7 +468,7 @@ fn a_slow_throttle_breaks_away_on_overspeed_and_the_referee_sees_where_it_goes()
     // (2.3 m/s) and breaks away, but the breakaway cannot stop it either: at 0.01/s the probe
     // passes the drogue plane 0.636 m from the centre at 3.62 m/s, the drogue and the hose
     // reach the radome, and the receiver flies on into the tanker's keep-out sphere (with the
-    // station's speed at 1.5 m/s it passed 0.358 m off, outside the canopy, and only the
+    // station's speed at 1.5 m/s it passed outside the canopy, and only the
     // keep-out sphere was entered); at 0.05/s it passes the drogue 1.871 m off, the hose
     // reaches the radome (the drogue did too, at 1.5 m/s), and it too enters the keep-out
     // sphere.
