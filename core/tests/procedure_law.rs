@@ -11,8 +11,8 @@
 //! added to the vertical); everything saturated to the velocity limits.
 //!
 //! Every expected value is computed by hand from those equations and the defaults of
-//! `RefuellingConfig` (track gain 0.5/s, correction at most 0.5 m/s, station 3 m at 0.4/s
-//! within 1.5 m/s, contact 1 m/s, capture time to go at least 0.4 s, missed approach 1 m/s
+//! `RefuellingConfig` (track gain 0.5/s, correction at most 0.5 m/s, station 3.6 m at 0.4/s
+//! within 0.55 m/s, contact 1 m/s, capture time to go at least 0.4 s, missed approach 1 m/s
 //! aft and 0.5 m/s down) and `ControllerConfig`'s velocity limits (2 m/s each axis).
 
 use ibvs_core::ControllerConfig;
@@ -65,9 +65,9 @@ fn the_station_holds_depth_and_follows_the_mean_offset_plus_its_integral() {
     // 1 m inside the station: open at 0.4 m/s.
     let v = desired_velocity(&e(-1.0), integral, Forward::Station, c, &rc, &lim);
     assert_velocity(v, [0.13, -0.15, -0.4], "1 m inside");
-    // 7 m behind: 2.8 m/s limited to the station's 1.5 m/s.
+    // 7 m behind: 2.8 m/s limited to the station's 0.55 m/s.
     let v = desired_velocity(&e(7.0), integral, Forward::Station, c, &rc, &lim);
-    assert_velocity(v, [0.13, -0.15, 1.5], "far behind");
+    assert_velocity(v, [0.13, -0.15, 0.55], "far behind");
     // A large mean offset is closed at the correction limit, 0.5 m/s, beside the integral.
     let far_off = estimate([0.0, 0.0], [-3.0, 2.0], 0.0, rc.station_depth_m);
     let v = desired_velocity(&far_off, integral, Forward::Station, c, &rc, &lim);
@@ -172,10 +172,10 @@ fn every_axis_is_saturated_to_the_velocity_limits() {
     let e = estimate([0.0; 2], [0.0; 2], 1.5, 10.0);
     let v = desired_velocity(&e, [3.0, -3.0], Forward::Contact, 1.0, &rc, &lim);
     assert_velocity(v, [2.0, -2.0, 2.0], "contact, saturated");
-    // On station the surge is left out: the station's own 1.5 m/s; an integral of 3 m/s
+    // On station the surge is left out: the station's own 0.55 m/s; an integral of 3 m/s
     // (beyond any configured limit) is saturated too.
     let v = desired_velocity(&e, [3.0, -3.0], Forward::Station, 1.0, &rc, &lim);
-    assert_velocity(v, [2.0, -2.0, 1.5], "station, its own limit");
+    assert_velocity(v, [2.0, -2.0, 0.55], "station, its own limit");
     // Clearing at a configured 3 m/s aft: limited to -2.
     let fast = RefuellingConfig {
         missed_aft_mps: 3.0,
