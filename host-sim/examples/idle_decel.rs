@@ -1,7 +1,7 @@
 //! Development tool: the deceleration idle power can give at each node of the gain
 //! schedule, the figure a missed approach's deceleration demand must stay within.
 //!
-//! At each node (100, 120, 145, 170 m/s by 500, 3,000, 5,500, 8,000 m) it trims the nominal
+//! At each node (`ibvs_core::gains::SCHEDULE_SPEEDS_MPS` by `SCHEDULE_ALTITUDES_M`) it trims the nominal
 //! F-16 (cg 0.35, `F16::new`) straight and level, then sets the throttle and the engine's
 //! power to idle with the attitude, angle of attack and surfaces of the trim, and prints the
 //! acceleration along the flight path that results: the deceleration drag and idle thrust
@@ -13,15 +13,20 @@
 //! `cargo run --release -p host-sim --example idle_decel`
 use host_sim::receiver::F16;
 use host_sim::synthesis::NOMINAL_XCG;
+use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = F16::new(NOMINAL_XCG)?;
-    println!("| altitude, m | 100 m/s | 120 m/s | 145 m/s | 170 m/s |");
-    println!("|---|---|---|---|---|");
-    for altitude_m in [500.0, 3000.0, 5500.0, 8000.0] {
+    let speeds: String = SCHEDULE_SPEEDS_MPS
+        .iter()
+        .map(|v| format!(" {v} m/s |"))
+        .collect();
+    println!("| altitude, m |{speeds}");
+    println!("|---|{}", "---|".repeat(SCHEDULE_SPEEDS_MPS.len()));
+    for altitude_m in SCHEDULE_ALTITUDES_M {
         let mut row = format!("| {altitude_m:.0} |");
-        for speed_mps in [100.0, 120.0, 145.0, 170.0] {
-            let trim = model.trim_straight_level(speed_mps, altitude_m)?;
+        for speed_mps in SCHEDULE_SPEEDS_MPS {
+            let trim = model.trim_straight_level(f64::from(speed_mps), f64::from(altitude_m))?;
             let mut state = trim.state;
             let mut command = trim.command;
             command.throttle = 0.0;
