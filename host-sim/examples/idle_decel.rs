@@ -1,14 +1,14 @@
 //! Development tool: the deceleration idle power can give at each node of the gain
 //! schedule, the figure a missed approach's deceleration demand must stay within.
 //!
-//! At each node (`ibvs_core::gains::SCHEDULE_SPEEDS_MPS` by `SCHEDULE_ALTITUDES_M`) it trims the nominal
-//! F-16 (cg 0.35, `F16::new`) straight and level, then sets the throttle and the engine's
-//! power to idle with the attitude, angle of attack and surfaces of the trim, and prints the
-//! acceleration along the flight path that results: the deceleration drag and idle thrust
-//! give before the aircraft pitches or the speed changes. It is an upper bound on what the
-//! receiver gets from the throttle: the engine spools down over about a second first (its
-//! power lag), and a heavier airframe decelerates less (the force is the same; the
-//! campaigns disperse the mass up to 1.3 times).
+//! At each node (`ibvs_core::gains::SCHEDULE_SPEEDS_MPS` by `SCHEDULE_ALTITUDES_M`) it trims
+//! the nominal F-16 (cg 0.35, `F16::new`) straight and level, then sets the throttle and the
+//! engine's power to idle with the attitude, angle of attack and surfaces of the trim, and
+//! prints the acceleration along the flight path that results: the deceleration drag and idle
+//! thrust give before the aircraft pitches or the speed changes. It is an upper bound on what
+//! the receiver gets from the throttle: the engine spools down over about a second first (its
+//! power lag), and a heavier airframe decelerates less (the force is the same; the campaigns
+//! disperse the mass up to 1.3 times).
 //!
 //! `cargo run --release -p host-sim --example idle_decel`
 use host_sim::receiver::F16;
