@@ -984,10 +984,10 @@ macro_rules! plant_keys {
     ($f:ident, $d:ident) => { plant_keys!(@list [] $f $d) };
 }
 
-/// The dispersion of the paper presets with turbulence (`paper-level1`, `paper-level2`,
-/// `paper-bow-wave`), without the turbulence intensity, which is +/-20 % around each preset's
-/// (see `docs/scenarios.md`, "Dispersion").
-macro_rules! paper_dispersion {
+/// The dispersion every preset with turbulence shares: the start, the turbulence intensity
+/// `$sigma` (+/-20 % around each preset's), the camera's noise and latency, the cg (see
+/// `docs/scenarios.md`, "Dispersion"). The camera's mount follows per family.
+macro_rules! common_dispersion {
     ($sigma:literal) => {
         concat!(
             "[dispersion]\n",
@@ -997,9 +997,33 @@ macro_rules! paper_dispersion {
             "\n",
             "pixel_noise_px = [0.25, 1.0]\n",
             "latency_frames = [1, 2]\n",
+            "xcg = [0.30, 0.40]\n",
+        )
+    };
+}
+
+/// The dispersion of the paper presets with turbulence (`paper-level1`, `paper-level2`,
+/// `paper-bow-wave`): the common one and the camera at the tip installed to +/-5 cm and
+/// +/-0.5 deg of pitch.
+macro_rules! paper_dispersion {
+    ($sigma:literal) => {
+        concat!(
+            common_dispersion!($sigma),
             "mount_error_m = [[-0.05, 0.05], [-0.05, 0.05], [-0.05, 0.05]]\n",
             "mount_pitch_error_deg = [-0.5, 0.5]\n",
-            "xcg = [0.30, 0.40]\n",
+        )
+    };
+}
+
+/// The set-back camera's mount position and pitch dispersion in the refuelling presets:
+/// +/-0.2 m per axis and +/-1 deg (roll and yaw in `world_plant_dispersion!`), as a nose
+/// camera sits after installation and in service; the controller's stated calibration bound
+/// is 0.5 m and 2 deg (`estimator.tip_sight_tolerance`).
+macro_rules! set_back_mount_dispersion {
+    () => {
+        concat!(
+            "mount_error_m = [[-0.2, 0.2], [-0.2, 0.2], [-0.2, 0.2]]\n",
+            "mount_pitch_error_deg = [-1.0, 1.0]\n",
         )
     };
 }
@@ -1014,11 +1038,16 @@ macro_rules! paper_keys {
     };
 }
 
-/// The dispersion of the refuelling presets: the paper presets' ([`paper_dispersion`]) and
-/// one or two control periods of navigation latency.
+/// The dispersion of the refuelling presets: the common one ([`common_dispersion`]), the
+/// set-back camera's mount ([`set_back_mount_dispersion`]) and one or two control periods of
+/// navigation latency.
 macro_rules! refuelling_dispersion {
     ($sigma:literal) => {
-        concat!(paper_dispersion!($sigma), "nav_latency_steps = [1, 2]\n")
+        concat!(
+            common_dispersion!($sigma),
+            set_back_mount_dispersion!(),
+            "nav_latency_steps = [1, 2]\n"
+        )
     };
 }
 
@@ -1044,8 +1073,8 @@ macro_rules! world_plant_dispersion {
             "[dispersion.bow_wave]\n",
             "strength = [0.7, 1.3]\n",
             "[dispersion.camera]\n",
-            "mount_roll_error_deg = [-0.5, 0.5]\n",
-            "mount_yaw_error_deg = [-0.5, 0.5]\n",
+            "mount_roll_error_deg = [-1.0, 1.0]\n",
+            "mount_yaw_error_deg = [-1.0, 1.0]\n",
             "focal_error_px = [-5.0, 5.0]\n",
             "principal_point_error_px = [[-5.0, 5.0], [-5.0, 5.0]]\n",
             "radial_distortion_k1 = [-0.01, 0.01]\n",
@@ -1259,8 +1288,7 @@ pub const PRESETS: [(&str, &str, &str); 15] = [
             "turbulence_sigma_mps = [0.56, 0.84]\n",
             "pixel_noise_px = [0.25, 1.0]\n",
             "latency_frames = [1, 2]\n",
-            "mount_error_m = [[-0.05, 0.05], [-0.05, 0.05], [-0.05, 0.05]]\n",
-            "mount_pitch_error_deg = [-0.5, 0.5]\n",
+            set_back_mount_dispersion!(),
             "xcg = [0.30, 0.40]\n",
             "nav_latency_steps = [1, 2]\n",
             plant_dispersion!()
