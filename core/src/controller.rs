@@ -153,6 +153,11 @@ pub struct Counters {
     pub estimator_restarts: u32,
     /// Probe-tip sightings rejected (not finite, or too far from where the geometry puts it).
     pub tip_sight_rejected: u32,
+    /// Probe-tip sightings averaged into the learned tip ([`Controller::probe_tip_image`]).
+    pub tip_sight_used: u32,
+    /// Valid frames without the probe tip's marker although the configured geometry puts the
+    /// tip in the camera's view (the learned tip is held).
+    pub tip_sight_missing: u32,
 }
 
 impl Counters {
@@ -521,6 +526,17 @@ impl Controller {
         &self.counters
     }
 
+    /// Refuelling: the probe tip's image point the drogue's offset is taken from, normalised
+    /// `(x right, y down)`: the running average of the tip marker's sightings, inside the
+    /// calibration window around the configured geometry's point (`docs/conventions.md`,
+    /// "Endpoint aiming"); the geometry's point until the first sighting
+    /// ([`Counters::tip_sight_used`] says how many it has seen). Kept across approaches and
+    /// sorties (the camera has not moved); a reconfiguration starts it again from the new
+    /// geometry.
+    pub fn probe_tip_image(&self) -> [f32; 2] {
+        self.tip_sight.image()
+    }
+
     /// Refuelling: the navigation's velocity bias `[right, down, forward]` as the station
     /// has estimated it, m/s (zero before engage, under the paper's procedure, or with
     /// `estimator.nav_bias_time_constant_s` 0).
@@ -657,9 +673,12 @@ impl Controller {
         let nav = &self.last_nav;
         if feature.is_ok() {
             let sighting = self.tip_sight.observe(probe_tip, &self.cfg.estimator);
+            let k = &mut self.counters;
+            bump(&mut k.tip_sight_rejected, sighting == TipSighting::Rejected);
+            bump(&mut k.tip_sight_used, sighting == TipSighting::Used);
             bump(
-                &mut self.counters.tip_sight_rejected,
-                sighting == TipSighting::Rejected,
+                &mut k.tip_sight_missing,
+                sighting == TipSighting::None && self.derived.tip.tip_in_view(),
             );
         }
         let tip_image = self.tip_sight.image();

@@ -165,6 +165,11 @@ impl Default for EstimatorConfig {
     }
 }
 
+/// Least distance of the probe tip ahead of the camera along the boresight for its marker to
+/// be in view, m: a camera closer than this is at the tip (the simulated camera renders the
+/// marker beyond the same 0.5 m).
+pub const TIP_IN_VIEW_MIN_DEPTH_M: f32 = 0.5;
+
 /// Where the probe tip is, seen from the camera: the part of the geometry the estimator
 /// needs to turn a frame into the drogue's offset from the tip. Derived once from the
 /// believed camera mount and probe-tip position.
@@ -206,6 +211,13 @@ impl TipGeometry {
     /// Probe tip minus camera in the camera's axes (right, down, boresight), m.
     pub fn tip_from_camera_m(&self) -> [f32; 3] {
         self.tip_from_camera_re_m
+    }
+
+    /// Whether the configured geometry puts the probe tip in front of the camera, where a
+    /// set-back camera sees its marker (more than [`TIP_IN_VIEW_MIN_DEPTH_M`] ahead along the
+    /// boresight); a camera at the tip does not.
+    pub fn tip_in_view(&self) -> bool {
+        self.tip_from_camera_re_m[2] > TIP_IN_VIEW_MIN_DEPTH_M
     }
 
     /// Where the configured geometry puts the probe tip in the image, normalised (the

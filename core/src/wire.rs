@@ -72,13 +72,15 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{ConfigError, ConfigProblem, ControllerConfig};
+#[cfg(doc)]
+use crate::controller::Controller;
 use crate::controller::{ControllerInput, ControllerOutput, Counters, ReconfigureError};
 pub use crate::crc32c::crc32c;
 use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 12;
+pub const PROTOCOL_VERSION: u8 = 13;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 640;
@@ -424,6 +426,11 @@ pub struct Telemetry {
     pub reset_cause: ResetCause,
     /// The clock it runs on (set at boot).
     pub clock: ClockSource,
+    /// Refuelling: the camera's calibration as learned in flight, the probe tip's image point
+    /// the drogue's offset is taken from, normalised ([`Controller::probe_tip_image`];
+    /// [`Counters::tip_sight_used`] says from how many sightings). A calibration changes
+    /// over minutes, not steps: it travels here, not in every command frame.
+    pub probe_tip_image: [f32; 2],
 }
 
 /// Free-running: a changed counter is sent at most this often, control periods (10 = 200 ms,
@@ -1264,6 +1271,8 @@ mod tests {
             estimator_rejected: m,
             estimator_restarts: m,
             tip_sight_rejected: m,
+            tip_sight_used: m,
+            tip_sight_missing: m,
         };
         let link = LinkCounters {
             frames_ok: m,
@@ -1337,6 +1346,7 @@ mod tests {
                 config_id: m,
                 reset_cause: ResetCause::LowPower,
                 clock: ClockSource::InternalFallback,
+                probe_tip_image: [f32::MAX; 2],
             },
         )
     }
@@ -1490,7 +1500,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, big, telemetry_small, telemetry_len),
-            (82, 90, 101, 137, 55, 235),
+            (82, 90, 101, 137, 65, 253),
             "update the module doc"
         );
     }

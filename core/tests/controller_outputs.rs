@@ -529,21 +529,66 @@ fn a_missed_approach_backs_off_and_descends_for_its_clearing_time_then_holds_the
 }
 
 #[test]
-fn only_rejected_probe_tip_sightings_are_counted() {
+fn every_probe_tip_sighting_is_counted_as_used_missing_or_rejected() {
     let mut s = Sortie::new();
-    let tol = s.ctl.config().estimator.tip_sight_tolerance;
+    let est = s.ctl.config().estimator;
+    let tol = est.tip_sight_tolerance;
     let station = [0.0, 0.0, 3.0];
-    // Where the geometry puts the tip, and a sighting within the tolerance of it: used.
+    let count = |s: &Sortie| {
+        let c = s.ctl.counters();
+        (c.tip_sight_used, c.tip_sight_missing, c.tip_sight_rejected)
+    };
+    // Where the geometry puts the tip: the learned point until a sighting.
     let t = s.tip;
     let tip_image = [t[0] / t[2], t[1] / t[2]];
+    assert_eq!(s.ctl.probe_tip_image(), tip_image);
+    // A sighting at the geometry's point and one within the tolerance of it: used; a frame
+    // without the marker, the tip being in the set-back camera's view: missing.
     s.step_seeing_tip(station, 0.0, Some(tip_image));
     s.step_seeing_tip(station, 0.0, None);
-    s.step_seeing_tip(station, 0.0, Some([tip_image[0] + 0.5 * tol, tip_image[1]]));
-    assert_eq!(s.ctl.counters().tip_sight_rejected, 0);
-    // Beyond the tolerance, or not finite: rejected, one count each.
+    let inside = [tip_image[0] + 0.5 * tol, tip_image[1]];
+    s.step_seeing_tip(station, 0.0, Some(inside));
+    assert_eq!(count(&s), (2, 1, 0));
+    // The learned point moved toward the sighting by the filter's weight, and no further.
+    let learned = s.ctl.probe_tip_image();
+    let want = tip_image[0] + est.tip_sight_filter * (inside[0] - tip_image[0]);
+    assert!((learned[0] - want).abs() < 1e-6, "{learned:?}, {want}");
+    assert_eq!(learned[1], tip_image[1]);
+    // Beyond the tolerance, or not finite: rejected, one count each, the learned point kept.
     s.step_seeing_tip(station, 0.0, Some([tip_image[0] + 2.0 * tol, tip_image[1]]));
     s.step_seeing_tip(station, 0.0, Some([f32::NAN, tip_image[1]]));
-    assert_eq!(s.ctl.counters().tip_sight_rejected, 2);
+    assert_eq!(count(&s), (2, 1, 2));
+    assert_eq!(s.ctl.probe_tip_image(), learned);
+}
+
+#[test]
+fn a_camera_at_the_tip_counts_no_missing_marker() {
+    // The refuelling procedure with the camera at the probe tip (the paper's place): no
+    // marker to see, nothing missing.
+    let mut cfg = ControllerConfig::default();
+    cfg.camera.position_body_m = cfg.probe_tip_body_m;
+    let mut ctl = Controller::new(cfg).expect("valid configuration");
+    for seq in 1..=5u32 {
+        ctl.step(&ControllerInput {
+            measurement: CameraMeasurement {
+                seq,
+                tracked: true,
+                image_x: 0.1 + 1e-4 * seq as f32,
+                image_y: 0.05,
+                depth_m: 5.0,
+                probe_tip: None,
+            },
+            nav: NavSample::default(),
+            probe_contact: false,
+            request: if seq == 1 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            },
+        });
+    }
+    assert_eq!(ctl.counters().tip_sight_missing, 0);
+    assert_eq!(ctl.counters().steps, 5);
 }
 
 #[test]

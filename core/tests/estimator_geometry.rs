@@ -103,7 +103,7 @@ fn level_camera() -> TipGeometry {
 
 #[test]
 fn the_tip_sight_accepts_within_the_tolerance_of_the_geometry_and_averages() {
-    // docs/conventions.md, "Camera set back on the nose": a running average of the tip's
+    // docs/conventions.md, "Endpoint aiming": a running average of the tip's
     // measured image point, within the tolerance (radial, 0.06 here) of where the geometry
     // puts it, else rejected. Average: image += k (measured - image), k = 0.25 here.
     let cfg = EstimatorConfig {

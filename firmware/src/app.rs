@@ -519,6 +519,7 @@ impl App {
             config_id: self.config_id,
             reset_cause: self.reset_cause,
             clock: self.clock,
+            probe_tip_image: self.controller.probe_tip_image(),
         };
         self.telemetry_sent = (counters, self.link);
         self.periods_since_telemetry = 0;
@@ -1311,6 +1312,7 @@ mod tests {
             if k % 10 == 0 {
                 let t = board.telemetry(&mut app);
                 assert_eq!(t.counters, *twin.counters());
+                assert_eq!(t.probe_tip_image, twin.probe_tip_image());
                 assert_eq!(t.link.frames_ok, k);
                 assert_eq!(t.seq, f[0].seq + 1, "one frame counter for every frame");
             }

@@ -524,7 +524,7 @@ mod tests {
         assert!(c.steps > 300, "{c:?}");
         assert!((82..=98).contains(&c.measurement_frame_len), "{c:?}");
         assert!((101..=137).contains(&c.command_frame_len), "{c:?}");
-        assert!((55..=235).contains(&c.telemetry_frame_len), "{c:?}");
+        assert!((65..=253).contains(&c.telemetry_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
         // The default configuration's write: 471 bytes of postcard (`core/src/wire.rs`) in a
         // 479-byte frame.

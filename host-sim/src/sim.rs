@@ -39,6 +39,7 @@ use crate::world::turbulence::{
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
+use ibvs_core::estimator::TIP_IN_VIEW_MIN_DEPTH_M;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
 /// Something that turns one step's input into one step's output: the core in-process, or
@@ -497,7 +498,7 @@ pub fn build_world(s: &Scenario, model: &F16, trim: &Trim, dt_s: f64) -> Result<
     let tip_camera = mount
         .body_from_camera()
         .inverse_transform_vector(&(s.probe_tip_body_m - s.camera_body_m));
-    let tip_in_view = (tip_camera.z > 0.5).then_some(tip_camera);
+    let tip_in_view = (tip_camera.z > f64::from(TIP_IN_VIEW_MIN_DEPTH_M)).then_some(tip_camera);
     let camera = match s.camera {
         CameraChoice::Ideal(p) => {
             let mut c = PinholeCamera::new(p);
