@@ -182,7 +182,11 @@ struct Sortie {
 
 impl Sortie {
     fn new() -> Self {
-        let cfg = ControllerConfig::default();
+        Self::with(ControllerConfig::default())
+    }
+
+    /// The same with the configuration `cfg`.
+    fn with(cfg: ControllerConfig) -> Self {
         let tip =
             TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, TRIM.theta_rad).tip_from_camera_m();
         Self {
@@ -567,28 +571,12 @@ fn a_camera_at_the_tip_counts_no_missing_marker() {
     // marker to see, nothing missing.
     let mut cfg = ControllerConfig::default();
     cfg.camera.position_body_m = cfg.probe_tip_body_m;
-    let mut ctl = Controller::new(cfg).expect("valid configuration");
-    for seq in 1..=5u32 {
-        ctl.step(&ControllerInput {
-            measurement: CameraMeasurement {
-                seq,
-                tracked: true,
-                image_x: 0.1 + 1e-4 * seq as f32,
-                image_y: 0.05,
-                depth_m: 5.0,
-                probe_tip: None,
-            },
-            nav: NavSample::default(),
-            probe_contact: false,
-            request: if seq == 1 {
-                ModeRequest::Engage
-            } else {
-                ModeRequest::None
-            },
-        });
+    let mut s = Sortie::with(cfg);
+    for _ in 0..5 {
+        s.step_seeing_tip([0.3, 0.2, 5.0], 0.0, None);
     }
-    assert_eq!(ctl.counters().tip_sight_missing, 0);
-    assert_eq!(ctl.counters().steps, 5);
+    assert_eq!(s.ctl.counters().tip_sight_missing, 0);
+    assert_eq!(s.ctl.counters().steps, 5);
 }
 
 #[test]
