@@ -526,6 +526,12 @@ impl Controller {
         &self.counters
     }
 
+    /// Refuelling: the drogue estimator, its state and covariance (for the simulator's
+    /// consistency measurements; the step's own use of it is unchanged by reading it).
+    pub fn drogue_estimator(&self) -> &DrogueEstimator {
+        &self.estimator
+    }
+
     /// Refuelling: the probe tip's image point the drogue's offset is taken from, normalised
     /// `(x right, y down)`: the running average of the tip marker's sightings, inside the
     /// calibration window around the configured geometry's point (`docs/conventions.md`,

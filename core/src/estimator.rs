@@ -696,6 +696,11 @@ impl DrogueEstimator {
         self.axes[2].p[0]
     }
 
+    /// Variance of the drogue's velocity estimate, `[right, down]`, m²/s².
+    pub fn velocity_variance_m2ps2(&self) -> [f32; 2] {
+        [self.axes[0].p[2], self.axes[1].p[2]]
+    }
+
     /// The drogue's RMS lateral speed as measured (the square root of the larger axis's
     /// velocity-variance average), m/s: how hard the air drives it.
     pub fn drogue_speed_rms_mps(&self) -> f32 {
