@@ -327,6 +327,17 @@ fn rates_positive(a: &ActuatorLimits) -> bool {
     a.rate_radps.iter().all(|r| r.is_finite() && *r > 0.0)
 }
 
+/// Largest angular bias the estimator's consider term takes, rad (11°): its error is the
+/// angle times the depth, a small-angle statement.
+pub const MAX_BEARING_BIAS_SIGMA_RAD: f32 = 0.2;
+
+/// Each angular bias sigma is finite, at least 0 and at most [`MAX_BEARING_BIAS_SIGMA_RAD`].
+fn bearing_bias_bounded(e: &EstimatorConfig) -> bool {
+    e.bearing_bias_sigma_rad
+        .iter()
+        .all(|b| (0.0..=MAX_BEARING_BIAS_SIGMA_RAD).contains(b))
+}
+
 /// Every channel's trim command lies inside its limits.
 fn holds_trim(a: &ActuatorLimits) -> bool {
     let trim = trim_command();
@@ -434,6 +445,7 @@ config_rules! {
     non_negative estimator.offset_noise_per_m;
     non_negative estimator.depth_noise_per_m2;
     holds estimator.tip_sight_filter if estimator.tip_sight_filter <= 1.0;
+    holds estimator.bearing_bias_sigma_rad if bearing_bias_bounded(estimator);
     // Time constants of at least a control period (the discrete models' poles stay away
     // from zero and the averages from a single step).
     holds estimator.drogue_time_constant_s

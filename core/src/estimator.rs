@@ -138,6 +138,18 @@ pub struct EstimatorConfig {
     /// change of its estimated velocity, s. Default 0.2 s: a twentieth of the swing, a
     /// tenth of its phase (0.1 s and 0.35 s measured as good, `docs/scenarios.md`).
     pub drogue_accel_time_constant_s: f32,
+    /// One standard deviation of the angular errors that turn the camera's view of the drogue
+    /// and that no frame averages away, `[right, down]` (about the down and the right axis),
+    /// rad: the navigation's heading and pitch biases, the camera mount's attitude error and
+    /// its principal point's. Each rotates the drogue's offset from the tip by its angle, an
+    /// error of that angle times the depth to the drogue plane, which vanishes at contact
+    /// (endpoint aiming, `docs/conventions.md`). The filter does not estimate it (it is not
+    /// observable); its variance times the depth squared is added to the offset's
+    /// ([`DrogueEstimator::offset_error_variance_m2`]) and to the gate's prediction: a
+    /// consider parameter. Default `[0.0145, 0.0124]`: a tactical INS's heading and pitch
+    /// biases (0.5° and 0.25°, one sigma), a mount within ±1° (0.58°, uniform) and a
+    /// principal point within ±5 px of 500 (0.33°), added in quadrature. 0: none.
+    pub bearing_bias_sigma_rad: [f32; 2],
 }
 
 impl Default for EstimatorConfig {
@@ -161,6 +173,7 @@ impl Default for EstimatorConfig {
             tip_sight_filter: 0.05,
             drogue_swing_period_s: 3.9,
             drogue_accel_time_constant_s: 0.2,
+            bearing_bias_sigma_rad: [0.0145, 0.0124],
         }
     }
 }
@@ -492,6 +505,8 @@ pub struct EstimatorModel {
     accel_step: f32,
     /// The feed-forward's velocity `lead` ahead is `lead[0] v + lead[1] a`.
     lead: [f32; 2],
+    /// [`EstimatorConfig::bearing_bias_sigma_rad`] squared, rad².
+    bearing_bias_variance: [f32; 2],
 }
 
 impl EstimatorModel {
@@ -513,6 +528,7 @@ impl EstimatorModel {
             ts: ts_s,
             accel_step: 1.0 - libm::expf(-ts_s / cfg.drogue_accel_time_constant_s),
             lead: swing_lead(cfg, lead_s),
+            bearing_bias_variance: cfg.bearing_bias_sigma_rad.map(|b| b * b),
         }
     }
 }
@@ -691,6 +707,22 @@ impl DrogueEstimator {
         [self.axes[0].p[0], self.axes[1].p[0]]
     }
 
+    /// Variance of the offset's error about the truth, `[right, down]`, m²: the filter's
+    /// own ([`DrogueEstimator::offset_variance_m2`]) and the angular bias's it does not
+    /// estimate, `(σ_b D)²` at the estimated depth `D`
+    /// ([`EstimatorConfig::bearing_bias_sigma_rad`]).
+    pub fn offset_error_variance_m2(&self, m: &EstimatorModel) -> [f32; 2] {
+        let b = self.bearing_bias_variance_m2(m);
+        [self.axes[0].p[0] + b[0], self.axes[1].p[0] + b[1]]
+    }
+
+    /// The angular bias's variance at the estimated depth, `[right, down]`, m².
+    #[inline(always)]
+    fn bearing_bias_variance_m2(&self, m: &EstimatorModel) -> [f32; 2] {
+        let d2 = self.axes[2].x[0] * self.axes[2].x[0];
+        m.bearing_bias_variance.map(|v| v * d2)
+    }
+
     /// Variance of the depth estimate, m².
     pub fn depth_variance_m2(&self) -> f32 {
         self.axes[2].p[0]
@@ -728,7 +760,9 @@ impl DrogueEstimator {
     /// The offset `horizon_s` ahead if the probe tip kept the velocity `tip_velocity_mps`
     /// (`[right, down]`) and nothing were measured, with its variance: the estimate's own,
     /// carried over the horizon, plus the drogue's unpredictable motion over it at the
-    /// measured PSD. One exponential (`num::exp_neg`) and one division.
+    /// measured PSD, plus the angular bias's at the present depth
+    /// ([`DrogueEstimator::offset_error_variance_m2`]). One exponential (`num::exp_neg`) and
+    /// one division.
     #[inline(always)]
     pub fn predict_offset(
         &self,
@@ -741,13 +775,14 @@ impl DrogueEstimator {
         // which the configuration's validation keeps within 1.5 τ.
         let f = crate::num::exp_neg(h / tau);
         let g = tau * (1.0 - f);
+        let bias = self.bearing_bias_variance_m2(m);
         [0, 1].map(|i| {
             let ax = &self.axes[i];
             let [prr, prv, pvv] = ax.p;
             let q = prediction_noise(tau, m.psd_per_variance * self.activity[i], h, f);
             AxisPrediction {
                 mean_m: ax.x[0] + g * ax.x[1] - h * tip_velocity_mps[i],
-                variance_m2: prr + 2.0 * g * prv + g * g * pvv + q[0],
+                variance_m2: prr + 2.0 * g * prv + g * g * pvv + q[0] + bias[i],
             }
         })
     }

@@ -526,9 +526,9 @@ mod tests {
         assert!((101..=137).contains(&c.command_frame_len), "{c:?}");
         assert!((65..=253).contains(&c.telemetry_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
-        // The default configuration's write: 471 bytes of postcard (`core/src/wire.rs`) in a
-        // 479-byte frame.
-        assert_eq!(c.config_frame_len, 479, "{c:?}");
+        // The default configuration's write: 479 bytes of postcard (`core/src/wire.rs`) in a
+        // 487-byte frame.
+        assert_eq!(c.config_frame_len, 487, "{c:?}");
         assert_eq!(c.step_stack_bytes, None);
     }
 }

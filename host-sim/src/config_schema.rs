@@ -377,7 +377,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 46] = [
+        let cases: [(&str, &str); 47] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -546,6 +546,10 @@ mod tests {
             (
                 "refuelling.sortie_budget_s",
                 "[refuelling]\nsortie_budget_s = 100000.0",
+            ),
+            (
+                "estimator.bearing_bias_sigma_rad",
+                "[estimator]\nbearing_bias_sigma_rad = [0.01, 0.3]",
             ),
         ];
         let shaped = ["finite, > 0", "finite, >= 0", "finite (every element)"];

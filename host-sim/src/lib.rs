@@ -40,6 +40,7 @@
 
 pub mod animate;
 pub mod config_schema;
+pub mod consistency;
 pub mod docking;
 pub mod flight_log;
 pub mod linearize;
