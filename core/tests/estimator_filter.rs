@@ -197,10 +197,26 @@ fn against_the_reference(ts_s: f32) {
             &what("depth variance"),
         );
     }
+    // The offset's error variance: the filter's plus the considered angular bias's,
+    // `(σ_b D)²` at the estimated depth.
+    let depth = reference[2].x[0];
+    let bias = cfg
+        .bearing_bias_sigma_rad
+        .map(|b| (f64::from(b) * depth).powi(2));
+    let err = e.offset_error_variance_m2(&m);
+    for i in 0..2 {
+        close(
+            err[i],
+            reference[i].p[0] + bias[i],
+            1e-3,
+            &format!("axis {i}: error variance"),
+        );
+    }
     // Predicted 0.3 s and 3 s ahead (below and beyond 1.5 τ) with the tip moving
     // 0.2 m/s right and 0.1 m/s down: the reference carried over the horizon, at the
     // measured PSD (the configured one at the start, q τ / 2 of stationary variance,
-    // moved by the average of the estimated velocity's square since).
+    // moved by the average of the estimated velocity's square since), plus the considered
+    // bias at the present depth.
     let psd_now = activity.map(|a| 2.0 / tau * a);
     for h in [0.3_f32, 3.0] {
         let p = e.predict_offset(h, [0.2, 0.1], &m);
@@ -215,7 +231,7 @@ fn against_the_reference(ts_s: f32) {
             );
             close(
                 p[i].variance_m2,
-                a.p[0],
+                a.p[0] + bias[i],
                 3e-3,
                 &format!("{h} s ahead, axis {i}: variance"),
             );

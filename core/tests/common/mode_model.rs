@@ -431,7 +431,8 @@ impl Filter {
 
     /// The go/no-go gate's figure: the radial offset predicted at the drogue plane (horizon
     /// the time to go at `closing`, at most `gate_max_horizon_s`, the tip keeping its lateral
-    /// velocity `tip`) plus `gate_sigmas` standard deviations of the larger axis.
+    /// velocity `tip`) plus `gate_sigmas` standard deviations of the larger axis (the
+    /// prediction's variance with the considered angular bias's, `(σ_b D)²`).
     ///
     /// The horizon jumps from the time to go to the longest when the closing speed falls
     /// through zero at the plane (no time to go): that comparison is a choice near equality.
@@ -453,13 +454,16 @@ impl Filter {
         let tau = f64::from(e.drogue_time_constant_s);
         let (f, psd_per_variance) = ((-h / tau).exp(), 2.0 / tau);
         let g = tau * (1.0 - f);
+        // The angular bias the estimator considers, at the present depth.
+        let depth = self.axes[2].x[0];
         let [a, b] = [0, 1].map(|i| {
             let ax = &self.axes[i];
             let q = process_noise(tau, psd_per_variance * self.activity[i], h);
             let [rr, rv, vv] = ax.p;
+            let bias = (f64::from(e.bearing_bias_sigma_rad[i]) * depth).powi(2);
             (
                 ax.x[0] + g * ax.x[1] - h * tip[i],
-                rr + 2.0 * g * rv + g * g * vv + q[0],
+                rr + 2.0 * g * rv + g * g * vv + q[0] + bias,
             )
         });
         a.0.hypot(b.0) + f64::from(rc.gate_sigmas) * a.1.max(b.1).max(0.0).sqrt()
