@@ -116,6 +116,10 @@ impl FlightComputer for Recorder {
         }));
         out
     }
+
+    fn probe_tip_image(&self) -> Option<[f32; 2]> {
+        FlightComputer::probe_tip_image(&self.ctl)
+    }
 }
 
 /// One counted step: steps since the estimator's start, error and variance per state.

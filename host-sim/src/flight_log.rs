@@ -145,6 +145,7 @@ fn measurement(s: &Sample, _: &StepRecord, rec: &Recording) -> Option<Value> {
         "image_y": m.image_y,
         "depth_m": m.depth_m,
         "probe_tip": m.probe_tip.map(|[x, y]| json!({ "x": x, "y": y })),
+        "learned_probe_tip": s.probe_tip_image.map(|[x, y]| json!({ "x": x, "y": y })),
         "aim_x": ax,
         "aim_y": ay,
         "image_error_x": f64::from(m.image_x) - ax,
@@ -279,6 +280,8 @@ const CHANNELS: &[ChannelDef] = &[
         description: "The camera frame the flight computer was given (after any injected fault): \
              normalised image point (x right, y down, dimensionless), depth along the boresight, m; \
              probe_tip: the probe tip's marker, normalised (a camera set back from the tip); \
+             learned_probe_tip: the flight computer's running average of it, the calibration \
+             it aims with (in-process every step, over the link its latest telemetry); \
              aim: where the controller steers the drogue's image (the paper's procedure: the \
              convergence point; the refuelling procedure: the drogue dead ahead of the probe \
              tip at the frame's depth); image_error = image point minus aim.",

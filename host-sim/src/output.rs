@@ -106,6 +106,8 @@ struct Row {
     est_drogue_vel_fwd_mps: f32,
     est_depth_m: f32,
     predicted_miss_m: f32,
+    learned_tip_image_x: Option<f32>,
+    learned_tip_image_y: Option<f32>,
 }
 
 impl From<&Sample> for Row {
@@ -162,6 +164,8 @@ impl From<&Sample> for Row {
             est_drogue_vel_fwd_mps: o.estimate.drogue_velocity_mps[2],
             est_depth_m: o.estimate.depth_m,
             predicted_miss_m: o.predicted_miss_m,
+            learned_tip_image_x: s.probe_tip_image.map(|p| p[0]),
+            learned_tip_image_y: s.probe_tip_image.map(|p| p[1]),
         }
     }
 }

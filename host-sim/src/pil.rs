@@ -1306,6 +1306,12 @@ impl FlightComputer for PilFlightComputer {
             }
         }
     }
+
+    /// From the latest telemetry frame (every 10 to 50 control periods; `None` before the
+    /// first).
+    fn probe_tip_image(&self) -> Option<[f32; 2]> {
+        self.link.telemetry().map(|t| t.probe_tip_image)
+    }
 }
 
 #[cfg(test)]

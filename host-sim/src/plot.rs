@@ -454,6 +454,7 @@ mod tests {
             drogue_from_tip_m: Vector3::zeros(),
             tip_velocity_mps: Vector3::zeros(),
             state: ReceiverState::from_vector(&StateVector::zeros()),
+            probe_tip_image: None,
         }
     }
 

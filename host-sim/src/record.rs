@@ -264,6 +264,13 @@ impl FlightComputer for Tap<'_> {
             }
         }
     }
+
+    fn probe_tip_image(&self) -> Option<[f32; 2]> {
+        match &self.inner {
+            Inner::Any(fc) => fc.probe_tip_image(),
+            Inner::Pil(fc) => FlightComputer::probe_tip_image(&**fc),
+        }
+    }
 }
 
 fn record(

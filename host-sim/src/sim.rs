@@ -47,6 +47,13 @@ use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 pub trait FlightComputer {
     /// Runs one control step.
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput;
+
+    /// The camera calibration the flight computer has learned, the probe tip's image point
+    /// (`ibvs_core::Controller::probe_tip_image`), as it last reported it: `None` when it
+    /// reports none.
+    fn probe_tip_image(&self) -> Option<[f32; 2]> {
+        None
+    }
 }
 
 impl FlightComputer for Controller {
@@ -56,6 +63,11 @@ impl FlightComputer for Controller {
         let output = Controller::step(self, input);
         self.follow_schedule();
         output
+    }
+
+    /// After every step.
+    fn probe_tip_image(&self) -> Option<[f32; 2]> {
+        Some(Controller::probe_tip_image(self))
     }
 }
 
@@ -263,6 +275,9 @@ pub struct Sample {
     pub tip_velocity_mps: Vector3<f64>,
     /// Receiver truth.
     pub state: ReceiverState,
+    /// The camera calibration the flight computer reported after the step
+    /// ([`FlightComputer::probe_tip_image`]).
+    pub probe_tip_image: Option<[f32; 2]>,
 }
 
 /// Summary of a run (the `dock --json` output).
@@ -677,6 +692,7 @@ pub fn run_observed(
                 (tip_now - prev_tip) / ts
             },
             state: x,
+            probe_tip_image: fc.probe_tip_image(),
         });
         if let Some(recorded) = samples.last() {
             observer(&world, recorded);

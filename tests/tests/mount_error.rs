@@ -15,8 +15,9 @@
 //! `docs/conventions.md`).
 
 use host_sim::scenario::ScenarioFile;
-use host_sim::sim::{self, Outcome, Summary};
-use ibvs_core::Controller;
+use host_sim::sim::{self, Outcome, Run, Summary};
+use ibvs_core::estimator::TipGeometry;
+use ibvs_core::{Controller, ControllerConfig};
 use rayon::prelude::*;
 
 /// The requirement: a miss at most this much above the error-free run's, m.
@@ -56,6 +57,11 @@ const PAPER_CASE: MountError = MountError {
 };
 
 fn fly(preset: &str, seed: u64, e: MountError) -> Summary {
+    fly_run(preset, seed, e).0.summary
+}
+
+/// The run, and the controller's configuration.
+fn fly_run(preset: &str, seed: u64, e: MountError) -> (Run, ControllerConfig) {
     let mut f = ScenarioFile::load(preset).expect("preset");
     f.seed = seed;
     f.camera.mount_error_m = e.position_m;
@@ -64,8 +70,9 @@ fn fly(preset: &str, seed: u64, e: MountError) -> Summary {
     f.camera.mount_roll_error_deg = roll;
     f.camera.mount_yaw_error_deg = yaw;
     f.validate().expect("valid scenario");
-    let mut c = Controller::new(f.controller_config()).expect("valid config");
-    sim::run(&f.scenario(), &mut c).expect("run").summary
+    let cfg = f.controller_config();
+    let mut c = Controller::new(cfg).expect("valid config");
+    (sim::run(&f.scenario(), &mut c).expect("run"), cfg)
 }
 
 /// Docked at the first attempt: its miss; otherwise why not.
@@ -114,4 +121,34 @@ fn in_level_two_air_a_mount_error_costs_at_most_five_centimetres_of_mean_miss() 
         })
         .collect();
     assert!(failures.is_empty(), "\n{}", failures.join("\n"));
+}
+
+#[test]
+fn the_run_logs_the_calibration_learned_and_it_is_the_mount_error_seen_from_the_camera() {
+    // The camera 0.3 m right of where it is believed: the tip appears 0.3 m left at its
+    // 2.67 m along the boresight, 0.11 in normalised units; nothing moves it vertically.
+    let e = MountError {
+        position_m: [0.0, 0.3, 0.0],
+        ..MountError::default()
+    };
+    let (run, cfg) = fly_run("calm", 1, e);
+    let g = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, cfg.camera.pitch_down_rad);
+    let (believed, tz) = (g.tip_image(), g.tip_from_camera_m()[2]);
+    let first = run.samples.first().and_then(|s| s.probe_tip_image);
+    assert_eq!(
+        first,
+        Some(believed),
+        "the geometry's point before any sighting"
+    );
+    let learned = run
+        .samples
+        .last()
+        .and_then(|s| s.probe_tip_image)
+        .expect("logged");
+    let shift = [learned[0] - believed[0], learned[1] - believed[1]];
+    let want = -0.3 / tz;
+    assert!(
+        (shift[0] - want).abs() < 0.1 * want.abs() && shift[1].abs() < 0.01,
+        "learned {learned:?}, believed {believed:?}: shift {shift:?}, want x {want}"
+    );
 }
