@@ -43,6 +43,15 @@
 //! stationary relation). It starts at the configured PSD's level (cautious) and settles within
 //! a few time constants: calm air makes the gate's margin small, strong turbulence large.
 //!
+//! What the filter cannot estimate it considers: the angular errors that turn the camera's
+//! view of the drogue and no frame averages away (the navigation's heading and pitch biases,
+//! the mount's attitude, the principal point) rotate the measured offset by their angle, an
+//! error of that angle times the depth to the drogue plane. Their variance
+//! ([`EstimatorConfig::bearing_bias_sigma_rad`]) times the depth squared is added to the
+//! offset's error variance and to the predictions' ([`DrogueEstimator::predict_offset`]),
+//! without changing the filter's gain (a consider parameter; measured against truth in
+//! `docs/conventions.md`, "Drogue estimator").
+//!
 //! Innovations beyond [`EstimatorConfig::gate_sigmas`] standard deviations are rejected and
 //! counted; after [`EstimatorConfig::max_rejections`] in a row the filter restarts from the
 //! frame (counted too): a drogue that really jumped is followed, an outlier is not.
