@@ -76,6 +76,7 @@
 #![forbid(unsafe_code)]
 
 pub mod actuator;
+pub mod attitude;
 pub mod config;
 pub mod controller;
 pub mod crc32c;
