@@ -23,6 +23,7 @@ use core::borrow::Borrow;
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::ActuatorLimits;
+use crate::attitude::{AttitudeLoopConfig, InnerLoop};
 use crate::estimator::EstimatorConfig;
 use crate::gains;
 use crate::kinematics::{CameraMount, SET_BACK_CAMERA_BODY_M};
@@ -83,6 +84,11 @@ pub struct ControllerConfig {
     pub refuelling: RefuellingConfig,
     /// The drogue estimator (refuelling procedure).
     pub estimator: EstimatorConfig,
+    /// Which inner loop flies the desired velocity: the surfaces (this controller flies the
+    /// aircraft) or attitude setpoints to the aircraft's own autopilot.
+    pub inner_loop: InnerLoop,
+    /// The attitude-command inner loop (when `inner_loop` is `attitude`).
+    pub attitude: AttitudeLoopConfig,
 }
 
 /// What is wrong with a configuration value.
@@ -167,6 +173,8 @@ impl Default for ControllerConfig {
             nav_latency_steps: 1,
             refuelling: RefuellingConfig::default(),
             estimator: EstimatorConfig::default(),
+            inner_loop: InnerLoop::Surfaces,
+            attitude: AttitudeLoopConfig::default(),
         }
     }
 }
@@ -370,6 +378,8 @@ config_rules! {
         nav_latency_steps,
         refuelling,
         estimator,
+        inner_loop: _,
+        attitude,
     } = cfg;
     positive ibvs.k1_mps;
     positive ibvs.k2_mps;
@@ -558,6 +568,38 @@ config_rules! {
     holds refuelling.missed_clear_s if refuelling.missed_clear_s < HOUR_S;
     holds refuelling.reacquire_limit_s if refuelling.reacquire_limit_s < HOUR_S;
     holds refuelling.sortie_budget_s if refuelling.sortie_budget_s < DAY_S;
+    positive attitude.pitch_time_constant_s;
+    positive attitude.roll_time_constant_s;
+    positive attitude.flight_path_lag_s;
+    positive attitude.engine_time_constant_s;
+    positive attitude.throttle_accel_mps2;
+    positive attitude.vertical_bandwidth_radps;
+    positive attitude.lateral_bandwidth_radps;
+    positive attitude.forward_bandwidth_radps;
+    positive attitude.damping;
+    positive attitude.max_bank_rad;
+    positive attitude.max_pitch_offset_rad;
+    // The attitude loop's time constants of at least a control period (its discrete thrust
+    // model's pole away from zero) and under a minute (a slower one is no autopilot).
+    holds attitude.engine_time_constant_s
+        if attitude.engine_time_constant_s >= gains::CONTROL_PERIOD_S
+            && attitude.engine_time_constant_s <= 60.0;
+    holds attitude.pitch_time_constant_s if attitude.pitch_time_constant_s <= 60.0;
+    holds attitude.roll_time_constant_s if attitude.roll_time_constant_s <= 60.0;
+    holds attitude.flight_path_lag_s if attitude.flight_path_lag_s <= 60.0;
+    // Bandwidths below the discrete loop's Nyquist tenth (the closed form is continuous).
+    holds attitude.vertical_bandwidth_radps
+        if attitude.vertical_bandwidth_radps <= 0.1 * core::f32::consts::PI / gains::CONTROL_PERIOD_S;
+    holds attitude.lateral_bandwidth_radps
+        if attitude.lateral_bandwidth_radps <= 0.1 * core::f32::consts::PI / gains::CONTROL_PERIOD_S;
+    holds attitude.forward_bandwidth_radps
+        if attitude.forward_bandwidth_radps <= 0.1 * core::f32::consts::PI / gains::CONTROL_PERIOD_S;
+    holds attitude.damping if attitude.damping <= 2.0;
+    // Bank and pitch setpoints inside the navigation envelope (the receiver flown to a
+    // setpoint the envelope rejects would break away on its own navigation).
+    holds attitude.max_bank_rad if attitude.max_bank_rad < nav_envelope.max_bank_rad;
+    holds attitude.max_pitch_offset_rad
+        if attitude.max_pitch_offset_rad < nav_envelope.max_angle_rad;
 }
 
 impl ControllerConfig {

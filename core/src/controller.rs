@@ -28,6 +28,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::actuator::{ActuatorCommand, Saturation};
+use crate::attitude::{
+    AttitudeDesign, AttitudeInputs, AttitudeLoop, AttitudeSetpoint, Command, InnerLoop,
+};
 use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw};
 use crate::estimator::{
     DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight, TipSighting,
@@ -95,6 +98,10 @@ impl StatusFlags {
     pub const NON_FINITE_COMMAND: u16 = 1 << 9;
     /// Breakaway without navigation: open-loop command.
     pub const OPEN_LOOP: u16 = 1 << 10;
+    /// Attitude-command loop: the pitch setpoint was limited this step.
+    pub const SATURATED_PITCH: u16 = 1 << 11;
+    /// Attitude-command loop: the bank setpoint was limited this step.
+    pub const SATURATED_BANK: u16 = 1 << 12;
 
     /// True when every bit of `mask` is set.
     pub fn contains(self, mask: u16) -> bool {
@@ -186,8 +193,9 @@ fn bump(c: &mut u32, when: bool) {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerOutput {
-    /// Saturated absolute actuator commands.
-    pub command: ActuatorCommand,
+    /// The command: saturated absolute surface and throttle commands, or attitude and
+    /// throttle setpoints for the autopilot (as configured: `inner_loop`).
+    pub command: Command,
     /// Mode after this step.
     pub mode: Mode,
     /// Why, when the mode is breakaway.
@@ -252,6 +260,8 @@ struct Derived {
     estimator: EstimatorModel,
     /// The probe tip seen from the believed camera.
     tip: TipGeometry,
+    /// The attitude-command loop's design at the scheduled trim's speed.
+    attitude: AttitudeDesign,
 }
 
 impl Derived {
@@ -297,6 +307,11 @@ impl Derived {
                 &cfg.camera,
                 cfg.probe_tip_body_m,
                 schedule::DESIGN.trim.theta_rad,
+            ),
+            attitude: AttitudeDesign::new(
+                &cfg.attitude,
+                schedule::DESIGN.trim.speed_mps,
+                Controller::PERIOD_S,
             ),
         })
     }
@@ -350,6 +365,8 @@ pub struct Controller {
     lat: Channel<5, 1, 2>,
     predict_lon: LatencyPredictor<4, 2, 2>,
     predict_lat: LatencyPredictor<5, 2, 2>,
+    /// The attitude-command inner loop's state (`inner_loop = attitude`).
+    attitude: AttitudeLoop,
     modes: ModeMachine,
     estimator: DrogueEstimator,
     tip_sight: TipSight,
@@ -406,6 +423,7 @@ impl Controller {
                 cfg.nav_latency_steps,
                 [rate[1] * CONTROL_PERIOD_S, rate[2] * CONTROL_PERIOD_S],
             ),
+            attitude: AttitudeLoop::default(),
             cfg,
             derived,
             modes: ModeMachine::default(),
@@ -476,6 +494,8 @@ impl Controller {
         self.predict_lon.set_model(d.predict_lon);
         self.predict_lat.set_model(d.predict_lat);
         self.derived.tip = TipGeometry::new(&cfg.camera, cfg.probe_tip_body_m, d.trim.theta_rad);
+        self.derived.attitude =
+            AttitudeDesign::new(&cfg.attitude, d.trim.speed_mps, Self::PERIOD_S);
         self.scheduled.trim = d.trim;
     }
 
@@ -778,10 +798,21 @@ impl Controller {
         // `flag` is a single bit: the product is a shift, no branch.
         let bit = |on: bool, flag: u16| u16::from(on) * flag;
         let [s0, s1, s2, s3] = sat.side.map(|s| s != 0);
-        let saturated = bit(s0, StatusFlags::SATURATED_ELEVATOR)
-            | bit(s1, StatusFlags::SATURATED_THROTTLE)
-            | bit(s2, StatusFlags::SATURATED_AILERON)
-            | bit(s3, StatusFlags::SATURATED_RUDDER);
+        // The saturation's slots are the surface loop's commands, or the attitude loop's
+        // `[pitch, throttle, bank, -]`.
+        let saturated = match self.cfg.inner_loop {
+            InnerLoop::Surfaces => {
+                bit(s0, StatusFlags::SATURATED_ELEVATOR)
+                    | bit(s1, StatusFlags::SATURATED_THROTTLE)
+                    | bit(s2, StatusFlags::SATURATED_AILERON)
+                    | bit(s3, StatusFlags::SATURATED_RUDDER)
+            }
+            InnerLoop::Attitude => {
+                bit(s0, StatusFlags::SATURATED_PITCH)
+                    | bit(s1, StatusFlags::SATURATED_THROTTLE)
+                    | bit(s2, StatusFlags::SATURATED_BANK)
+            }
+        };
         let bits = saturated
             | bit(held, StatusFlags::MEASUREMENT_HELD)
             | bit(nav_held, StatusFlags::NAV_HELD)
@@ -798,6 +829,158 @@ impl Controller {
         bump(&mut c.integrator_frozen_steps, lon_frozen || lat_frozen);
         bump(&mut c.non_finite_commands, sat.non_finite);
         bits
+    }
+
+    /// The surface inner loops (`inner`): the command, its saturation and whether each
+    /// channel's integrators froze. `flags` are (open loop, integrate, bumpless engage).
+    #[inline(always)]
+    fn surface_loops(
+        &mut self,
+        mode: Mode,
+        flags: (bool, bool, bool),
+        x: (&[f32; 5], &[f32; 5]),
+        v_des: &VelocityRe,
+        tracked: (&[f32; 2], &[f32; 1]),
+    ) -> (Command, Saturation, bool, bool) {
+        let (open_loop, integrate, engage) = flags;
+        let (x_lon, x_lat) = x;
+        let trim = self.scheduled.trim.command();
+        let requested = if mode == Mode::Standby {
+            // Standby: integrators and engine model at zero, the trim commanded (the
+            // refuelling procedure preloads its integrators at engage, below).
+            self.lon.reset();
+            self.lat.reset();
+            self.engine.reset();
+            self.predict_lon.reset();
+            self.predict_lat.reset();
+            trim
+        } else if open_loop {
+            [
+                trim[0],
+                trim[1] - self.cfg.modes.breakaway_throttle_cut,
+                trim[2],
+                trim[3],
+            ]
+        } else {
+            // The state feedback acts on the (late) sample predicted over the INS latency;
+            // the integrators and the mode logic read the sample itself (`predictor`).
+            let [theta, v, alpha, q] = self
+                .predict_lon
+                .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
+            // The actuators' deflections from the predictors' models of the commands sent
+            // (longitudinal: engine, elevator; lateral: aileron, rudder; `gains`).
+            let x_lon = [theta, v, alpha, q, x_lon[4]];
+            let a_lon = [self.predict_lon.unmeasured()[1], 0.0];
+            let x_lat = self.predict_lat.predict(*x_lat);
+            let a_lat = self.predict_lat.unmeasured();
+            if engage {
+                // Bumpless engage (`inner`): the first engaged command is the Standby
+                // command, the integrators taking up the receiver's offset from the design
+                // trim.
+                let lim = self.cfg.integrator_limit_m;
+                self.lon.preload(&x_lon, &a_lon, lim);
+                self.lat.preload(&x_lat, a_lat, lim);
+            }
+            let [e, th] = self.lon.control(&x_lon, &a_lon);
+            let [a, r] = self.lat.control(&x_lat, a_lat);
+            [e, th, a, r]
+        };
+        let (command, sat) = self.cfg.actuators.saturate(requested, trim);
+        let du: [f32; 4] = core::array::from_fn(|i| command[i] - trim[i]);
+        self.engine.advance(du[1]);
+        self.predict_lon.record([du[0], du[1]]);
+        self.predict_lat.record([du[2], du[3]]);
+        let (lon_frozen, lat_frozen) = if integrate {
+            let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
+            let (y_lon, y_lat) = tracked;
+            let lon = self.lon.integrate(
+                y_lon,
+                &[v_des.y_down_mps, v_des.z_fwd_mps],
+                &[s[0], s[1]],
+                ts,
+                lim,
+            );
+            let lat = self
+                .lat
+                .integrate(y_lat, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
+            (lon, lat)
+        } else {
+            (false, false)
+        };
+        (
+            Command::Surfaces(ActuatorCommand::from_array(command)),
+            sat,
+            lon_frozen,
+            lat_frozen,
+        )
+    }
+
+    /// The attitude-command inner loop (`attitude`): the setpoint, its saturation (in the
+    /// slots `[pitch, throttle, bank, -]`) and whether the longitudinal (pitch, throttle) or
+    /// lateral (bank) integrators froze. `flags` as [`Controller::surface_loops`]'.
+    #[inline(always)]
+    fn attitude_loop(
+        &mut self,
+        mode: Mode,
+        flags: (bool, bool, bool),
+        v_des: &VelocityRe,
+        tracked: (&[f32; 2], &[f32; 1]),
+    ) -> (Command, Saturation, bool, bool) {
+        let (open_loop, integrate, engage) = flags;
+        let trim = &self.scheduled.trim;
+        let nav = &self.last_nav;
+        let level = |throttle| AttitudeSetpoint {
+            roll_rad: 0.0,
+            pitch_rad: trim.theta_rad,
+            yaw_rad: nav.lat.psi_rad,
+            throttle,
+        };
+        let mut sat = Saturation::default();
+        let (setpoint, frozen) = if mode == Mode::Standby {
+            // Standby: wings level at the trim pitch and throttle, integrators at zero.
+            self.attitude.reset();
+            (level(trim.throttle), [false; 3])
+        } else if open_loop {
+            let cut = trim.throttle - self.cfg.modes.breakaway_throttle_cut;
+            let lim = &self.cfg.actuators;
+            (level(max_to(cut, lim.min[1])), [false; 3])
+        } else {
+            let (y_lon, y_lat) = tracked;
+            let inputs = AttitudeInputs {
+                velocity_mps: [y_lon[0], y_lon[1], y_lat[0]],
+                desired_mps: [v_des.y_down_mps, v_des.z_fwd_mps, v_des.x_right_mps],
+                theta_rad: nav.lon.theta_rad,
+                phi_rad: nav.lat.phi_rad,
+                psi_rad: nav.lat.psi_rad,
+            };
+            let lim = self.cfg.integrator_limit_m;
+            if engage {
+                self.attitude.preload(&self.derived.attitude, &inputs, lim);
+            }
+            let a = &self.cfg.actuators;
+            let before = self.attitude.integrators_m();
+            let (sp, side) = self.attitude.step(
+                &self.derived.attitude,
+                &self.cfg.attitude,
+                &inputs,
+                (trim.theta_rad, trim.throttle),
+                (a.min[1], a.max[1]),
+                Self::PERIOD_S,
+                lim,
+                integrate,
+            );
+            sat.side = [side[0], side[1], side[2], 0];
+            let after = self.attitude.integrators_m();
+            let frozen: [bool; 3] =
+                core::array::from_fn(|c| integrate && side[c] != 0 && after[c] == before[c]);
+            (sp, frozen)
+        };
+        (
+            Command::Attitude(setpoint),
+            sat,
+            frozen[0] || frozen[1],
+            frozen[2],
+        )
     }
 
     /// Runs one control step. Never panics; the command is always finite and within limits.
@@ -988,68 +1171,23 @@ impl Controller {
         let v_des = self.v_cmd;
 
         // 5. Inner loops and saturation.
-        let trim = self.scheduled.trim.command();
         let open_loop = mode == Mode::Breakaway && !nav_valid;
-        let requested = if mode == Mode::Standby {
-            // Standby: integrators and engine model at zero, the trim commanded (the
-            // refuelling procedure preloads its integrators at engage, below).
-            self.lon.reset();
-            self.lat.reset();
-            self.engine.reset();
-            self.predict_lon.reset();
-            self.predict_lat.reset();
-            trim
-        } else if open_loop {
-            [
-                trim[0],
-                trim[1] - self.cfg.modes.breakaway_throttle_cut,
-                trim[2],
-                trim[3],
-            ]
-        } else {
-            // The state feedback acts on the (late) sample predicted over the INS latency;
-            // the integrators and the mode logic read the sample itself (`predictor`).
-            let [theta, v, alpha, q] = self
-                .predict_lon
-                .predict([x_lon[0], x_lon[1], x_lon[2], x_lon[3]]);
-            // The actuators' deflections from the predictors' models of the commands sent
-            // (longitudinal: engine, elevator; lateral: aileron, rudder; `gains`).
-            let x_lon = [theta, v, alpha, q, x_lon[4]];
-            let a_lon = [self.predict_lon.unmeasured()[1], 0.0];
-            let x_lat = self.predict_lat.predict(x_lat);
-            let a_lat = self.predict_lat.unmeasured();
-            if before == Mode::Standby && !paper {
-                // Bumpless engage (`inner`): the first engaged command is the Standby
-                // command, the integrators taking up the receiver's offset from the design
-                // trim.
-                let lim = self.cfg.integrator_limit_m;
-                self.lon.preload(&x_lon, &a_lon, lim);
-                self.lat.preload(&x_lat, a_lat, lim);
-            }
-            let [e, th] = self.lon.control(&x_lon, &a_lon);
-            let [a, r] = self.lat.control(&x_lat, a_lat);
-            [e, th, a, r]
-        };
-        let (command, sat) = self.cfg.actuators.saturate(requested, trim);
-        let du: [f32; 4] = core::array::from_fn(|i| command[i] - trim[i]);
-        self.engine.advance(du[1]);
-        self.predict_lon.record([du[0], du[1]]);
-        self.predict_lat.record([du[2], du[3]]);
-        let (lon_frozen, lat_frozen) = if mode != Mode::Standby && nav_valid {
-            let (ts, lim, s) = (Self::PERIOD_S, self.cfg.integrator_limit_m, sat.side);
-            let lon = self.lon.integrate(
-                &y_lon_held,
-                &[v_des.y_down_mps, v_des.z_fwd_mps],
-                &[s[0], s[1]],
-                ts,
-                lim,
-            );
-            let lat = self
-                .lat
-                .integrate(&y_lat_held, &[v_des.x_right_mps], &[s[2], s[3]], ts, lim);
-            (lon, lat)
-        } else {
-            (false, false)
+        let integrate = mode != Mode::Standby && nav_valid;
+        let engage = before == Mode::Standby && !paper;
+        let (command, sat, lon_frozen, lat_frozen) = match self.cfg.inner_loop {
+            InnerLoop::Surfaces => self.surface_loops(
+                mode,
+                (open_loop, integrate, engage),
+                (&x_lon, &x_lat),
+                &v_des,
+                (&y_lon_held, &y_lat_held),
+            ),
+            InnerLoop::Attitude => self.attitude_loop(
+                mode,
+                (open_loop, integrate, engage),
+                &v_des,
+                (&y_lon_held, &y_lat_held),
+            ),
         };
 
         // 6. Status and counters: nothing to flag or count in most steps.
@@ -1068,7 +1206,7 @@ impl Controller {
         let c = &self.counters;
 
         ControllerOutput {
-            command: ActuatorCommand::from_array(command),
+            command,
             mode,
             breakaway_reason: self.modes.breakaway_reason(),
             status: StatusFlags(bits),

@@ -56,7 +56,7 @@
 //! let out = controller.step(&input);
 //! assert_eq!(out.mode, Mode::PreContact);
 //! assert_eq!(out.attempt, 1);
-//! assert!(out.command.elevator_rad.is_finite() && out.command.throttle.is_finite());
+//! assert!(out.command.as_array()[0].is_finite() && out.command.throttle().is_finite());
 //! // A NaN depth is rejected, named and counted, and the last command is held.
 //! let bad = ControllerInput {
 //!     measurement: CameraMeasurement { seq: 2, depth_m: f32::NAN, ..input.measurement },

@@ -19,10 +19,10 @@
 //!
 //! ```text
 //! payload  = version (u8, PROTOCOL_VERSION) | kind (u8, FrameKind) | body (postcard, at most
-//!            MAX_BODY_LEN = 630 bytes)
+//!            MAX_BODY_LEN = 694 bytes)
 //!          | CRC-32C of version..body (Castagnoli, CRC_32_ISCSI: poly 0x1EDC6F41 reflected,
 //!            init and xorout 0xFFFFFFFF), 4 bytes little-endian
-//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 640 bytes
+//! on wire  = COBS(payload) | 0x00            at most MAX_FRAME_LEN = 704 bytes
 //! ```
 //!
 //! | kind byte | direction | body | answer |
@@ -38,7 +38,7 @@
 //! # Configuration
 //!
 //! The controller's configuration travels whole: a `W` frame carries a complete
-//! [`ControllerConfig`] (479 bytes of postcard for the default), and the flight computer
+//! [`ControllerConfig`] (524 bytes of postcard for the default), and the flight computer
 //! answers with a [`ConfigReport`]: what it did ([`ConfigStatus`]: applied, rejected by
 //! validation with the field and problem, refused because the controller is not in standby,
 //! or malformed) and the configuration it now flies, with that configuration's
@@ -80,10 +80,10 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 14;
+pub const PROTOCOL_VERSION: u8 = 15;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
-pub const MAX_FRAME_LEN: usize = 640;
+pub const MAX_FRAME_LEN: usize = 704;
 
 /// Largest payload (header, body and CRC) before COBS encoding, bytes. COBS adds one code
 /// byte per block of at most 254 data bytes, so at most 3 to a payload of up to 762 bytes;
@@ -1297,7 +1297,7 @@ mod tests {
             engage_inhibited: m,
         };
         let output = ControllerOutput {
-            command: ActuatorCommand::from_array([-1.0; 4]),
+            command: crate::attitude::Command::Surfaces(ActuatorCommand::from_array([-1.0; 4])),
             mode: Mode::Breakaway,
             breakaway_reason: Some(BreakawayReason::ContactLost),
             status: StatusFlags(u16::MAX),
@@ -1500,7 +1500,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, big, telemetry_small, telemetry_len),
-            (82, 90, 101, 137, 65, 253),
+            (82, 90, 102, 138, 65, 253),
             "update the module doc"
         );
     }
@@ -1542,7 +1542,7 @@ mod tests {
         let body = postcard::to_slice(&ControllerConfig::default(), &mut [0u8; 1024])
             .unwrap()
             .len();
-        assert_eq!(body, 479, "update the module doc");
+        assert_eq!(body, 524, "update the module doc");
         assert!(
             write_len < report_len && report_len + 16 <= MAX_FRAME_LEN,
             "{report_len}"

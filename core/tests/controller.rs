@@ -535,7 +535,7 @@ fn invalid_navigation_flies_the_held_sample_with_frozen_integrators_then_breaks_
     assert_eq!(out.command, good.command, "inner loops on the held sample");
     assert_eq!(rig.ctl.integrators_m(), q0, "integrators frozen");
     assert_ne!(twin.ctl.integrators_m(), q0, "the twin integrates");
-    let lateral = [out.command.aileron_rad, out.command.rudder_rad];
+    let lateral = [out.command.as_array()[2], out.command.as_array()[3]];
 
     let limit = u32::from(cfg.modes.hold_limit_steps);
     for k in 2..=limit {
@@ -544,7 +544,10 @@ fn invalid_navigation_flies_the_held_sample_with_frozen_integrators_then_breaks_
         assert!(has(&out, StatusFlags::NAV_HELD));
         assert_eq!(rig.ctl.integrators_m(), q0, "step {k}");
         // Held lateral state and frozen integrator: the lateral command cannot move.
-        assert_eq!([out.command.aileron_rad, out.command.rudder_rad], lateral);
+        assert_eq!(
+            [out.command.as_array()[2], out.command.as_array()[3]],
+            lateral
+        );
         let c = rig.ctl.counters();
         assert_eq!((c.nav_non_finite, c.nav_held_steps), (k, k));
     }

@@ -834,7 +834,7 @@ fn an_open_loop_breakaway_held_at_a_throttle_stop_reports_both() {
     bad_nav.lon.v_mps = f32::INFINITY;
     let out = ctl.step(&approach_input(2, ModeRequest::Abort, bad_nav));
     assert_eq!(out.mode, Mode::Breakaway);
-    assert_eq!(out.command.throttle, cfg.actuators.min[1]);
+    assert_eq!(out.command.throttle(), cfg.actuators.min[1]);
     assert!(
         out.status
             .contains(StatusFlags::OPEN_LOOP | StatusFlags::SATURATED_THROTTLE),
@@ -935,7 +935,7 @@ fn a_standby_trim_outside_a_limit_is_reported_saturated() {
     assert!(ctl.follow_schedule());
     let out = ctl.step(&input(2));
     assert_eq!(out.mode, Mode::Standby);
-    assert_eq!(out.command.elevator_rad, middle);
+    assert_eq!(out.command.as_array()[0], middle);
     assert_eq!(
         out.status.0,
         StatusFlags::SATURATED_ELEVATOR,

@@ -76,6 +76,7 @@
 use embedded_io::{Read, ReadReady};
 use ibvs_core::Counters;
 use ibvs_core::actuator::ActuatorCommand;
+use ibvs_core::attitude::Command;
 use ibvs_core::config::trim_command;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
@@ -308,7 +309,7 @@ fn step_out_of_line(controller: &mut Controller, input: &ControllerInput) -> Con
 /// The standby output: trim commands, nothing else (boot, panic, no link yet).
 pub fn trim_output() -> ControllerOutput {
     ControllerOutput {
-        command: ActuatorCommand::from_array(trim_command()),
+        command: Command::Surfaces(ActuatorCommand::from_array(trim_command())),
         ..ControllerOutput::default()
     }
 }

@@ -55,11 +55,9 @@ mod board;
 fn main() -> std::process::ExitCode {
     match one_step::run() {
         Ok(out) => {
-            let c = out.command;
             println!(
-                "firmware (host): one step ok: mode {:?}, elevator {} rad, throttle {}, \
-                 aileron {} rad, rudder {} rad",
-                out.mode, c.elevator_rad, c.throttle, c.aileron_rad, c.rudder_rad
+                "firmware (host): one step ok: mode {:?}, command {:?}",
+                out.mode, out.command
             );
             std::process::ExitCode::SUCCESS
         }

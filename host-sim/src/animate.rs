@@ -691,6 +691,8 @@ fn status_names(flags: StatusFlags) -> Vec<&'static str> {
         (StatusFlags::ENGAGE_REFUSED, "engage refused"),
         (StatusFlags::NON_FINITE_COMMAND, "non-finite command"),
         (StatusFlags::OPEN_LOOP, "open loop"),
+        (StatusFlags::SATURATED_PITCH, "pitch setpoint sat."),
+        (StatusFlags::SATURATED_BANK, "bank setpoint sat."),
     ]
     .into_iter()
     .filter(|(bit, _)| flags.contains(*bit))
@@ -848,12 +850,19 @@ pub fn overlay_lines(run: &Run, rec: &Recording, k: usize, last: bool) -> Vec<St
         ),
         format!(
             "elev {:+.2}°  ail {:+.2}°  rud {:+.2}°  thr {:.0} %",
-            deg(o.command.elevator_rad),
-            deg(o.command.aileron_rad),
-            deg(o.command.rudder_rad),
-            f64::from(o.command.throttle) * 100.0
+            s.surfaces_commanded.elevator_rad.to_degrees(),
+            s.surfaces_commanded.aileron_rad.to_degrees(),
+            s.surfaces_commanded.rudder_rad.to_degrees(),
+            s.surfaces_commanded.throttle * 100.0
         ),
     ]);
+    if let Some(a) = o.command.attitude() {
+        lines.push(format!(
+            "setpoint: bank {:+.2}°  pitch {:+.2}°  (to the autopilot)",
+            deg(a.roll_rad),
+            deg(a.pitch_rad)
+        ));
+    }
     let status = status_names(o.status);
     lines.push(if status.is_empty() {
         "status: nominal".to_string()

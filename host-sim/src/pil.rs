@@ -667,8 +667,9 @@ impl PilLink {
             ),
         )?;
         let mut link = Self::around(None, Box::new(port), dir, log, opts);
-        link.boot.output.command =
-            ibvs_core::actuator::ActuatorCommand::from_array(ibvs_core::config::trim_command());
+        link.boot.output.command = ibvs_core::attitude::Command::Surfaces(
+            ibvs_core::actuator::ActuatorCommand::from_array(ibvs_core::config::trim_command()),
+        );
         let deadline = Instant::now() + opts.boot_timeout;
         while Instant::now() < deadline {
             let wait =

@@ -396,7 +396,7 @@ pub fn write_dock_figure(
                 ),
             ],
         )?;
-        let deg = |v: f32| Some(f64::from(v).to_degrees());
+        let rad_deg = |v: f64| Some(v.to_degrees());
         lines(
             &p[3],
             "Commands (throttle in %)",
@@ -406,22 +406,22 @@ pub fn write_dock_figure(
                 (
                     "elevator",
                     c[0],
-                    over_time(run, |s| deg(s.output.command.elevator_rad)),
+                    over_time(run, |s| rad_deg(s.surfaces_commanded.elevator_rad)),
                 ),
                 (
                     "aileron",
                     c[1],
-                    over_time(run, |s| deg(s.output.command.aileron_rad)),
+                    over_time(run, |s| rad_deg(s.surfaces_commanded.aileron_rad)),
                 ),
                 (
                     "rudder",
                     c[2],
-                    over_time(run, |s| deg(s.output.command.rudder_rad)),
+                    over_time(run, |s| rad_deg(s.surfaces_commanded.rudder_rad)),
                 ),
                 (
                     "throttle",
                     BLACK,
-                    over_time(run, |s| Some(f64::from(s.output.command.throttle) * 100.0)),
+                    over_time(run, |s| Some(s.surfaces_commanded.throttle * 100.0)),
                 ),
             ],
         )?;
@@ -455,6 +455,7 @@ mod tests {
             tip_velocity_mps: Vector3::zeros(),
             state: ReceiverState::from_vector(&StateVector::zeros()),
             probe_tip_image: None,
+            surfaces_commanded: crate::receiver::ReceiverCommand::default(),
         }
     }
 

@@ -28,7 +28,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::receiver::{FACTORS, ReceiverPlant, ReceiverPlantRanges};
+use crate::receiver::{AutopilotParams, FACTORS, ReceiverPlant, ReceiverPlantRanges};
 use crate::sim::{CameraChoice, PAPER_START_M, Scenario};
 use crate::synthesis::{NOMINAL_XCG, PROBE_TIP_BODY_M};
 use crate::world::camera::CameraParams;
@@ -581,9 +581,19 @@ pub struct ScenarioFile {
     /// The tanker's breakaway call.
     #[serde(skip_serializing_if = "AbortSection::is_empty")]
     pub abort: AbortSection,
+    /// The aircraft's autopilot (`[autopilot]`), flying the surfaces when the controller
+    /// flies through it (`controller.inner_loop = "attitude"`): its parameters, each
+    /// optional over ArduPlane's defaults and this airframe's rate gains (`docs/models.md`,
+    /// "Autopilot").
+    #[serde(skip_serializing_if = "is_default_autopilot")]
+    pub autopilot: AutopilotParams,
     /// Monte Carlo ranges (campaigns only).
     #[serde(skip_serializing_if = "DispersionSection::is_empty")]
     pub dispersion: DispersionSection,
+}
+
+fn is_default_autopilot(a: &AutopilotParams) -> bool {
+    *a == AutopilotParams::default()
 }
 
 /// The paper's camera position error, body axes, m (Sec. IV, experiment 2).
@@ -655,6 +665,7 @@ impl Default for ScenarioFile {
                 ins: InsGrade::Tactical.errors(),
             },
             abort: AbortSection::default(),
+            autopilot: AutopilotParams::default(),
             dispersion: DispersionSection::default(),
         }
     }
@@ -737,6 +748,9 @@ pub enum ScenarioError {
     /// Two keys give the same thing.
     #[error("{0}")]
     Conflict(&'static str),
+    /// An `[autopilot]` parameter is invalid (the rule broken).
+    #[error("autopilot: {0}")]
+    Autopilot(&'static str),
     /// A flight condition outside the models' validity (the key and the limit named).
     #[error(transparent)]
     Flight(#[from] FlightConditionError),
@@ -1160,7 +1174,7 @@ macro_rules! abort_dispersion {
 pub const MIL_LEVEL2_SIGMA_RANGE_MPS: [f64; 2] = [1.47, 2.21];
 
 /// Built-in presets: name, description and TOML text (parsed like a user's file).
-pub const PRESETS: [(&str, &str, &str); 15] = [
+pub const PRESETS: [(&str, &str, &str); 17] = [
     (
         "calm",
         "paper start, calm air, tanker wake, hose and LED camera, refuelling procedure (the default)",
@@ -1277,6 +1291,26 @@ pub const PRESETS: [(&str, &str, &str); 15] = [
             refuelling_dispersion!("[1.47, 2.21]"),
             plant_dispersion!(),
             abort_dispersion!()
+        ),
+    ),
+    (
+        "autopilot-level2",
+        "level2 flown through the aircraft's autopilot: attitude and throttle setpoints, ArduPlane-like attitude loops",
+        concat!(
+            "[controller]\ninner_loop = \"attitude\"\n",
+            "[turbulence]\npreset = \"level2\"\n",
+            refuelling_dispersion!("[0.56, 0.84]"),
+            plant_dispersion!()
+        ),
+    ),
+    (
+        "autopilot-mil-level2",
+        "mil-level2 flown through the aircraft's autopilot: attitude and throttle setpoints, ArduPlane-like attitude loops",
+        concat!(
+            "[controller]\ninner_loop = \"attitude\"\n",
+            "[turbulence]\nsigma_mps = 1.84\n",
+            refuelling_dispersion!("[1.47, 2.21]"),
+            plant_dispersion!()
         ),
     ),
     (
@@ -1444,6 +1478,9 @@ impl ScenarioFile {
             )?;
         }
         self.navigation.ins.check()?;
+        self.autopilot
+            .validate()
+            .map_err(ScenarioError::Autopilot)?;
         let d = &self.dispersion;
         for (bound, value, _) in plant_keys!(self, d) {
             bound.check(value)?;
@@ -1823,6 +1860,7 @@ impl ScenarioFile {
             camera_body_m: c.placement.position_body_m(),
             navigation: (f.navigation.model == NavModel::Ins).then_some(f.navigation.ins),
             abort_at_range_m: f.abort.at_range_m,
+            autopilot: f.autopilot,
             tanker: crate::world::Tanker {
                 speed_mps: f.flight.airspeed_mps,
                 altitude_m: f.flight.altitude_m,

@@ -21,7 +21,8 @@ use serde::Serialize;
 
 use crate::docking::Contact;
 use crate::receiver::{
-    F16, ModelError, ReceiverCommand, ReceiverPlant, ReceiverState, Trim, TrimError,
+    Autopilot, AutopilotParams, F16, ModelError, ReceiverCommand, ReceiverPlant, ReceiverState,
+    Trim, TrimError,
 };
 use crate::referee::{Airframe, CrossingRecord, FlightTruth, Limits, Referee, Truth, Verdict};
 use crate::synthesis::{
@@ -39,6 +40,7 @@ use crate::world::turbulence::{
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
+use ibvs_core::attitude::Command;
 use ibvs_core::estimator::TIP_IN_VIEW_MIN_DEPTH_M;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
@@ -147,6 +149,10 @@ pub struct Scenario {
     /// is at or below this, m, the controller engaged and the coupling not latched; `None`:
     /// never. The call stands until the run ends.
     pub abort_at_range_m: Option<f64>,
+    /// The aircraft's autopilot, flying the surfaces from the flight computer's attitude
+    /// setpoints when the controller is configured for its attitude-command inner loop
+    /// ([`crate::receiver::Autopilot`]; unused when the flight computer commands surfaces).
+    pub autopilot: AutopilotParams,
 }
 
 /// The camera model and its parameters.
@@ -191,6 +197,7 @@ impl Scenario {
             bow_wave_strength: 1.0,
             navigation: None,
             abort_at_range_m: None,
+            autopilot: AutopilotParams::default(),
         }
     }
 
@@ -278,6 +285,9 @@ pub struct Sample {
     /// The camera calibration the flight computer reported after the step
     /// ([`FlightComputer::probe_tip_image`]).
     pub probe_tip_image: Option<[f32; 2]>,
+    /// The surfaces and throttle commanded to the actuators (before any injected actuator
+    /// fault): the flight computer's own, or the autopilot's from its setpoint.
+    pub surfaces_commanded: ReceiverCommand,
 }
 
 /// Summary of a run (the `dock --json` output).
@@ -624,6 +634,17 @@ pub fn run_observed(
         }
     };
     let steps = (s.duration_s / ts).ceil() as usize;
+    s.autopilot.validate().map_err(SimError::Scenario)?;
+    let mut autopilot = Autopilot::new(
+        s.autopilot,
+        &trim.state,
+        &ReceiverCommand {
+            elevator_rad: trim.elevator_rad,
+            throttle: trim.throttle,
+            aileron_rad: trim.aileron_rad,
+            rudder_rad: trim.rudder_rad,
+        },
+    );
 
     let tip = |x: &ReceiverState, t: f64| point_in_tanker_m(&s.tanker, x, &s.probe_tip_body_m, t);
     let mut referee = Referee::new(
@@ -679,6 +700,18 @@ pub fn run_observed(
             },
         };
         let output = fc.step(&input);
+        let surfaces = match &output.command {
+            Command::Surfaces(c) => ReceiverCommand {
+                elevator_rad: f64::from(c.elevator_rad),
+                throttle: f64::from(c.throttle),
+                aileron_rad: f64::from(c.aileron_rad),
+                rudder_rad: f64::from(c.rudder_rad),
+            },
+            Command::Attitude(sp) => {
+                autopilot.receive(sp, t);
+                autopilot.command(&x, t, ts)
+            }
+        };
         samples.push(Sample {
             time_s: t,
             measurement,
@@ -693,6 +726,7 @@ pub fn run_observed(
             },
             state: x,
             probe_tip_image: fc.probe_tip_image(),
+            surfaces_commanded: surfaces,
         });
         if let Some(recorded) = samples.last() {
             observer(&world, recorded);
@@ -706,16 +740,7 @@ pub fn run_observed(
         if latched || breakaway_at.is_some_and(|at| t >= at + s.after_event_s) {
             break;
         }
-        let cmd = injector.actuate(
-            ReceiverCommand {
-                elevator_rad: f64::from(output.command.elevator_rad),
-                throttle: f64::from(output.command.throttle),
-                aileron_rad: f64::from(output.command.aileron_rad),
-                rudder_rad: f64::from(output.command.rudder_rad),
-            },
-            &x,
-            ts,
-        );
+        let cmd = injector.actuate(surfaces, &x, ts);
         for i in 0..s.plant_substeps {
             let ti = t + f64::from(i) * dt;
             let wind = if i == 0 {

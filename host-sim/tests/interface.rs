@@ -545,7 +545,7 @@ fn the_script_names_bad_frames_and_resynchronises() {
     for (_, bytes) in &cases {
         stream.extend_from_slice(bytes);
     }
-    stream.extend_from_slice(&[0x42; 700]);
+    stream.extend_from_slice(&[0x42; ibvs_core::wire::MAX_FRAME_LEN + 60]);
     stream.push(0);
     stream.extend_from_slice(&frame);
     let got = py_decode(&stream);

@@ -158,6 +158,14 @@ fn pil_flies_every_presets_configuration_like_the_in_process_controller() {
             .iter()
             .any(|(c, _)| c.procedure == Procedure::Refuelling)
     );
+    // The attitude-command inner loop (the autopilot presets): the firmware's setpoints fly
+    // the simulator's autopilot exactly as the in-process controller's.
+    assert!(
+        flown
+            .iter()
+            .any(|(c, _)| c.inner_loop == ibvs_core::attitude::InnerLoop::Attitude),
+        "{names:?}"
+    );
 }
 
 /// A configuration the firmware refuses leaves it flying the one it had, and says why.

@@ -138,14 +138,14 @@ pub fn start() -> ! {
     match one_step::run() {
         Ok(out) => {
             if args.has("self-test") {
-                let c = out.command;
+                let c = out.command.as_array();
                 hprintln!(
-                    "firmware: one step ok: mode {:?}, elevator {} rad, throttle {}, aileron {} rad, rudder {} rad",
+                    "firmware: one step ok: mode {:?}, command [{}, {}, {}, {}]",
                     out.mode,
-                    Micro(c.elevator_rad),
-                    Micro(c.throttle),
-                    Micro(c.aileron_rad),
-                    Micro(c.rudder_rad)
+                    Micro(c[0]),
+                    Micro(c[1]),
+                    Micro(c[2]),
+                    Micro(c[3])
                 );
                 debug::exit(debug::EXIT_SUCCESS);
                 halt()

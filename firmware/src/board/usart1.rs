@@ -35,15 +35,16 @@ pub const RX_QUEUE_LEN: usize = 512;
 const _: () = assert!(crate::app::RX_CHUNK_LEN >= RX_QUEUE_LEN);
 
 /// Transmit queue capacity, bytes: the largest frame the link can carry
-/// ([`ibvs_core::wire::MAX_FRAME_LEN`], 640; a configuration report is at most about 520)
-/// and the largest command frame (354) behind it, so that a configuration report followed
-/// by the period's command frame is never refused. At 921,600 baud it drains in 11.1 ms, less
-/// than one control period, so in flight (one command frame per period, 3.8 ms on the
-/// wire) it never holds more than that period's frame; a refused frame means the wire is
-/// slower than that (counted, `LinkCounters::tx_dropped`).
-pub const TX_QUEUE_LEN: usize = 1024;
+/// ([`ibvs_core::wire::MAX_FRAME_LEN`], 704; a configuration report is at most 655), the
+/// largest command frame (138) and the largest telemetry frame (253) behind it, so that a
+/// configuration report followed by the period's frames is never refused (a power of two:
+/// 2,048). At 921,600 baud those 1,095 bytes drain in 11.9 ms, less than one control period,
+/// so in flight (one command frame per period, 1.5 ms on the wire) it never holds more than
+/// that period's frames; a refused frame means the wire is slower than that (counted,
+/// `LinkCounters::tx_dropped`).
+pub const TX_QUEUE_LEN: usize = 2048;
 
-const _: () = assert!(TX_QUEUE_LEN >= ibvs_core::wire::MAX_FRAME_LEN + 354);
+const _: () = assert!(TX_QUEUE_LEN >= ibvs_core::wire::MAX_FRAME_LEN + 138 + 253);
 
 /// The queues the USART1 interrupt and the main loop share.
 static LINK: SerialQueues<RX_QUEUE_LEN, TX_QUEUE_LEN> = SerialQueues::new();

@@ -17,6 +17,7 @@
 mod actuators;
 mod aero;
 mod atmosphere;
+mod autopilot;
 mod data;
 mod engine;
 mod interp;
@@ -29,6 +30,7 @@ mod units;
 pub use actuators::{ActuatorParams, SurfaceLimits};
 pub use aero::ReferenceGeometry;
 pub use atmosphere::AirProperties;
+pub use autopilot::{Autopilot, AutopilotParams};
 pub use data::ModelError;
 pub use model::{AirData, BodyLoads, F16};
 pub use plant::{

@@ -12,6 +12,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use ibvs_core::ControllerConfig;
+use ibvs_core::attitude::{Command, InnerLoop};
 use ibvs_core::config::{ConfigProblem, OuterLaw};
 use ibvs_core::measurement::MeasurementError;
 use ibvs_core::mode::{BreakawayReason, Mode, ModeRequest, NoGoReason};
@@ -66,6 +67,8 @@ pub fn registry() -> Registry {
         ClockSource,
         Procedure,
         OuterLaw,
+        InnerLoop,
+        Command,
     );
     t.registry().unwrap_or_else(|e| {
         panic!(
