@@ -863,3 +863,5 @@ fn build_nav(l: &Latest, now_ms: u32, cfg: &NavConfig) -> Result<NavFix, NavBuil
 #[cfg(test)]
 mod tests;
 
+#[cfg(test)]
+mod pymavlink;
