@@ -3,8 +3,9 @@
 #
 #   0. the pinned compiler (rust-toolchain.toml);
 #   1. the Cortex-M4F target, flip-link (the firmware's linker: a stack overflow becomes a
-#      fault), QEMU (Debian's qemu-system-arm) and the ARM binutils (objdump and addr2line,
-#      for the static bounds of the control step and task in the benchmark gate);
+#      fault), QEMU (Debian's qemu-system-arm), the ARM binutils (objdump and addr2line,
+#      for the static bounds of the control step and task in the benchmark gate) and
+#      pymavlink (the MAVLink codec's cross-check);
 #   2. both firmware boards cross-built (the real board is the default build, the QEMU board
 #      an explicit feature): the core links for the STM32F405 with no allocator
 #      (a use of `alloc` would fail this link);
@@ -42,6 +43,16 @@ if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump
     || ! command -v arm-none-eabi-addr2line >/dev/null; then
     apt-get update
     apt-get install -y --no-install-recommends qemu-system-arm binutils-arm-none-eabi
+fi
+# pymavlink: the MAVLink codec's cross-check (firmware/tests/mavlink_check.py). Debian's
+# python3 is "externally managed" (PEP 668), so pip is retried with --break-system-packages.
+if ! python3 -c 'import pymavlink' 2>/dev/null; then
+    if ! command -v python3 >/dev/null || ! python3 -m pip --version >/dev/null 2>&1; then
+        apt-get update
+        apt-get install -y --no-install-recommends python3 python3-pip
+    fi
+    python3 -m pip install pymavlink \
+        || python3 -m pip install --break-system-packages pymavlink
 fi
 
 # The real board (the default build) and the QEMU board (chosen explicitly, its own target dir).
