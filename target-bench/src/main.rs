@@ -166,6 +166,9 @@ struct Args {
 struct Workload {
     name: &'static str,
     what: String,
+    /// The configuration flown (written to the firmware before the replay when it is not
+    /// the default).
+    config: ControllerConfig,
     inputs: Vec<ControllerInput>,
 }
 
@@ -184,14 +187,14 @@ impl FlightComputer for Recorder {
 
 type Error = Box<dyn std::error::Error>;
 
-/// Flies `scenario` in-process with the default configuration and `faults` injected; its
-/// inputs and outcome.
+/// Flies `scenario` in-process with `config` and `faults` injected; its inputs and outcome.
 fn record(
     scenario: &Scenario,
+    config: ControllerConfig,
     faults: &[SimFault],
 ) -> Result<(Vec<ControllerInput>, String), Error> {
     let mut rec = Recorder {
-        controller: Controller::new(ControllerConfig::default())?,
+        controller: Controller::new(config)?,
         inputs: Vec::new(),
     };
     let run = sim::run_with_faults(scenario, &mut rec, faults)?;
@@ -299,7 +302,8 @@ fn workloads() -> Result<Vec<Workload>, Error> {
     let mut calm = Vec::new();
     let mut ideal = Vec::new();
     for (name, what, scenario, faults, expected) in flown {
-        let (inputs, outcome) = record(&scenario, &faults)?;
+        let config = ControllerConfig::default();
+        let (inputs, outcome) = record(&scenario, config, &faults)?;
         if !outcome.contains(expected) {
             return Err(format!("workload {name}: expected {expected}, flew {outcome}").into());
         }
@@ -311,9 +315,31 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         out.push(Workload {
             name,
             what: format!("{what}; {outcome}"),
+            config,
             inputs,
         });
     }
+
+    // The attitude-command inner loop (through the autopilot): the one workload flown with
+    // another configuration, written to the firmware before its replay.
+    let file = ScenarioFile::load("autopilot-level2")?;
+    let config = file.controller_config();
+    let autopilot = Scenario {
+        seed: 1,
+        ..file.scenario()
+    };
+    let (inputs, outcome) = record(&autopilot, config, &[])?;
+    if !outcome.contains("docked") {
+        return Err(format!("workload autopilot: expected docked, flew {outcome}").into());
+    }
+    out.push(Workload {
+        name: "autopilot",
+        what: format!(
+            "autopilot-level2 seed 1: level II turbulence flown through the autopilot (attitude and throttle setpoints); {outcome}"
+        ),
+        config,
+        inputs,
+    });
 
     // The calm docking's inputs with the navigation invalid (NaN) from step 200 on: 25 held
     // steps, then breakaway without navigation, open loop.
@@ -325,6 +351,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         name: "nav-loss",
         what: "the calm docking's inputs, navigation NaN from step 200: hold, breakaway open loop"
             .into(),
+        config: ControllerConfig::default(),
         inputs: nav_lost,
     });
 
@@ -341,6 +368,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
     out.push(Workload {
         name: "docked-contact-lost",
         what: "the ideal docking's inputs, 50 steps docked, then contact lost: breakaway".into(),
+        config: ControllerConfig::default(),
         inputs: docked,
     });
     Ok(out)
@@ -454,8 +482,12 @@ fn max_mark(log: &str, mark: &str) -> Option<u32> {
 /// Replays `inputs` through the firmware at `elf`, checking every output against the
 /// in-process controller's.
 fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
-    let mut reference = Controller::new(ControllerConfig::default())?;
+    let mut reference = Controller::new(w.config)?;
     let mut fw = PilFlightComputer::spawn(elf)?;
+    if w.config != ControllerConfig::default() {
+        fw.configure(&w.config)
+            .map_err(|e| format!("{}: configuration: {e}", w.name))?;
+    }
     let mut r = Replay {
         step: Vec::new(),
         decode: Vec::new(),
