@@ -585,15 +585,10 @@ pub struct ScenarioFile {
     /// flies through it (`controller.inner_loop = "attitude"`): its parameters, each
     /// optional over ArduPlane's defaults and this airframe's rate gains (`docs/models.md`,
     /// "Autopilot").
-    #[serde(skip_serializing_if = "is_default_autopilot")]
     pub autopilot: AutopilotParams,
     /// Monte Carlo ranges (campaigns only).
     #[serde(skip_serializing_if = "DispersionSection::is_empty")]
     pub dispersion: DispersionSection,
-}
-
-fn is_default_autopilot(a: &AutopilotParams) -> bool {
-    *a == AutopilotParams::default()
 }
 
 /// The paper's camera position error, body axes, m (Sec. IV, experiment 2).
@@ -2405,6 +2400,29 @@ mod tests {
         assert_eq!(f.scenario().abort_at_range_m, Some(1.5));
         assert_eq!(ScenarioFile::parse(&f.to_toml(), "again").unwrap(), f);
         assert_eq!(ScenarioFile::default().scenario().abort_at_range_m, None);
+    }
+
+    #[test]
+    fn the_autopilot_table_reaches_the_run_and_a_bad_parameter_is_named() {
+        let f = ScenarioFile::parse(
+            "[controller]\ninner_loop = \"attitude\"\n[autopilot]\nroll_time_constant_s = 0.4\n",
+            "f",
+        )
+        .unwrap();
+        assert_eq!(f.scenario().autopilot.roll_time_constant_s, 0.4);
+        assert_eq!(
+            f.controller_config().inner_loop,
+            ibvs_core::attitude::InnerLoop::Attitude
+        );
+        assert_eq!(ScenarioFile::parse(&f.to_toml(), "again").unwrap(), f);
+        let e = ScenarioFile::parse("[autopilot]\npitch_rate_p = -1.0\n", "f")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("autopilot") && e.contains(">= 0"), "{e}");
+        let e = ScenarioFile::parse("[autopilot]\nroll_rate_q = 1.0\n", "f")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("roll_rate_q"), "{e}");
     }
 
     #[test]

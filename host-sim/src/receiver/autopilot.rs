@@ -9,7 +9,7 @@
 //! tuning point (ArduPlane's airspeed scaler). The pitch loop adds the turn's pitch rate
 //! (`PTCH2SRV_RLL`); the rudder coordinates the turn (`YAW2SRV_RLL`) and damps yaw
 //! (`YAW2SRV_DAMP`). The throttle passes through. Setpoints are limited to
-//! `LIM_ROLL_CD`, `LIM_PITCH_MAX`, `LIM_PITCH_MIN`. Without a new setpoint for
+//! `ROLL_LIMIT_DEG`, `PTCH_LIM_MAX_DEG`, `PTCH_LIM_MIN_DEG`. Without a new setpoint for
 //! `GUIDED_TIMEOUT` the autopilot stops following the flight computer: wings level, the
 //! trim pitch and the last throttle (ArduPlane returns to its own guidance there; in a
 //! formation that is flying straight on).
@@ -40,11 +40,11 @@ pub struct AutopilotParams {
     pub roll_time_constant_s: f64,
     /// Pitch-angle loop time constant, s (`PTCH2SRV_TCONST`, default 0.5).
     pub pitch_time_constant_s: f64,
-    /// Largest bank, rad (`LIM_ROLL_CD`, default 4500 cdeg = 45 deg).
+    /// Largest bank, rad (`ROLL_LIMIT_DEG`, formerly `LIM_ROLL_CD`: 45 deg).
     pub max_roll_rad: f64,
-    /// Largest pitch, rad (`LIM_PITCH_MAX`, default 2000 cdeg = 20 deg).
+    /// Largest pitch, rad (`PTCH_LIM_MAX_DEG`, formerly `LIM_PITCH_MAX`: 20 deg).
     pub max_pitch_rad: f64,
-    /// Smallest pitch, rad (`LIM_PITCH_MIN`, default -2500 cdeg = -25 deg).
+    /// Smallest pitch, rad (`PTCH_LIM_MIN_DEG`, formerly `LIM_PITCH_MIN`: -25 deg).
     pub min_pitch_rad: f64,
     /// Roll rate loop: feed-forward, rad of aileron per rad/s (`RLL_RATE_FF`).
     pub roll_rate_ff: f64,
@@ -244,8 +244,8 @@ impl Autopilot {
             scale,
             dt_s,
         );
-        // Yaw: the coordinated turn's yaw rate, damped (positive rudder yaws left).
-        let r_des = turn_rate * phi.cos();
+        // Yaw: the coordinated turn's body yaw rate, damped (positive rudder yaws left).
+        let r_des = turn_rate;
         let rudder = self.integrator_rad[2]
             - scale * (p.yaw_turn_coordination * r_des + p.yaw_damping * (r_des - rate_r));
         let lim = p.surface_limits_rad;
