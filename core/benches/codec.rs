@@ -34,6 +34,7 @@ fn messages() -> (Uplink, Downlink) {
             0.3, -0.2, 0.012, 0.4, 0.008, 0.003, 0.5, 0.004, -0.01, 0.002, 0.003, -0.002,
         ]),
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::Engage,
     };
     let output = controller.step(&input);

@@ -66,6 +66,7 @@ fn varying_inputs() -> Vec<ControllerInput> {
                 },
                 nav,
                 probe_contact: false,
+                autopilot_ready: true,
                 request: ModeRequest::None,
             }
         })

@@ -65,6 +65,11 @@ pub struct ControllerInput {
     pub nav: NavSample,
     /// Probe contact discrete (coupling latched / fuel pressure).
     pub probe_contact: bool,
+    /// Attitude-command inner loop: the aircraft's autopilot is in a mode that follows the
+    /// flight computer's setpoints (ArduPlane GUIDED, PX4 OFFBOARD; from its heartbeat).
+    /// Without it an engage is refused and an engaged receiver breaks away
+    /// ([`BreakawayReason::AutopilotMode`]). The surface loops ignore it.
+    pub autopilot_ready: bool,
     /// Operator request.
     pub request: ModeRequest,
 }
@@ -1071,6 +1076,8 @@ impl Controller {
                 nav_valid,
                 in_envelope,
                 probe_contact: input.probe_contact,
+                autopilot_ready: self.cfg.inner_loop == InnerLoop::Surfaces
+                    || input.autopilot_ready,
                 camera_fwd_mps: y_lon[1],
                 v_des: self.v_cmd,
                 refuel,

@@ -50,7 +50,7 @@
 //!         probe_tip: None,
 //!     },
 //!     nav: NavSample::default(), // at trim
-//!     probe_contact: false,
+//!     probe_contact: false, autopilot_ready: true,
 //!     request: ModeRequest::Engage,
 //! };
 //! let out = controller.step(&input);

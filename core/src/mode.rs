@@ -12,6 +12,8 @@
 //! | engaged | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
 //! | engaged | the latest valid navigation's flight condition outside the docking envelope | Breakaway(OutsideDockingEnvelope) |
 //! | standby | `Engage` request with the flight condition outside the docking envelope | Standby (refused) |
+//! | engaged | attitude-command loop: the autopilot not following setpoints | Breakaway(AutopilotMode) |
+//! | standby | `Engage` request, attitude-command loop, the autopilot not following setpoints | Standby (refused) |
 //! | pre-contact, approach, terminal, missed approach | camera (refuelling: probe tip) forward speed relative to the tanker > `overspeed_mps` | Breakaway(Overspeed) |
 //!
 //! The paper's procedure ([`Procedure::Paper`]):
@@ -144,6 +146,10 @@ pub enum BreakawayReason {
     /// The flight condition left the docking envelope (the gain schedule has no design
     /// there; [`crate::schedule::ScheduleError`] says which limit).
     OutsideDockingEnvelope,
+    /// Attitude-command inner loop: the autopilot left the mode that follows the flight
+    /// computer's setpoints (a pilot's or its own failsafe's mode change): the setpoints no
+    /// longer fly the aircraft.
+    AutopilotMode,
 }
 
 /// Why an approach of the refuelling procedure was abandoned for a missed approach.
@@ -251,6 +257,9 @@ pub struct ModeInputs {
     pub in_envelope: bool,
     /// Probe contact discrete.
     pub probe_contact: bool,
+    /// The inner loop can fly: the surface loops always, the attitude-command loop while the
+    /// autopilot follows its setpoints ([`crate::ControllerInput::autopilot_ready`]).
+    pub autopilot_ready: bool,
     /// Camera forward speed relative to the tanker from navigation, m/s.
     pub camera_fwd_mps: f32,
     /// The desired velocity the inner loops were tracking (slewed): the receiver's own
@@ -644,6 +653,13 @@ impl ModeMachine {
             // In standby an engage is refused; in breakaway the receiver flies on.
             return self.mode == Mode::Standby && inp.request == ModeRequest::Engage;
         }
+        if !inp.autopilot_ready {
+            if engaged {
+                self.break_away(BreakawayReason::AutopilotMode);
+                return false;
+            }
+            return self.mode == Mode::Standby && inp.request == ModeRequest::Engage;
+        }
         if matches!(
             self.mode,
             Mode::PreContact | Mode::Approach | Mode::Terminal | Mode::MissedApproach
@@ -894,6 +910,7 @@ mod tests {
             nav_valid: true,
             in_envelope: true,
             probe_contact: false,
+            autopilot_ready: true,
             camera_fwd_mps: 1.0,
             v_des: VelocityRe {
                 x_right_mps: 0.1,
@@ -1091,6 +1108,7 @@ mod tests {
         let mut m = terminal();
         let contact = ModeInputs {
             probe_contact: true,
+            autopilot_ready: true,
             ..inputs()
         };
         assert_eq!(at(&mut m, contact, 1.0), Mode::Docked);
@@ -1277,6 +1295,7 @@ mod tests {
         m.update(
             &ModeInputs {
                 probe_contact: true,
+                autopilot_ready: true,
                 target: None,
                 ..inputs()
             },
@@ -1333,6 +1352,7 @@ mod tests {
         m.update(
             &ModeInputs {
                 probe_contact: true,
+                autopilot_ready: true,
                 ..inputs()
             },
             &cfg,
@@ -1342,6 +1362,7 @@ mod tests {
         m.update(
             &ModeInputs {
                 probe_contact: true,
+                autopilot_ready: true,
                 ..inputs()
             },
             &cfg,
@@ -1368,6 +1389,7 @@ mod tests {
                     &ModeInputs {
                         request: req,
                         probe_contact: true,
+                        autopilot_ready: true,
                         ..near(0.0)
                     },
                     &cfg,

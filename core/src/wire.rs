@@ -1233,6 +1233,7 @@ mod tests {
                 probe_tip: None,
             },
             probe_contact: true,
+            autopilot_ready: true,
             request: ModeRequest::Engage,
             ..Default::default()
         };
@@ -1500,7 +1501,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, big, telemetry_small, telemetry_len),
-            (82, 90, 102, 138, 65, 253),
+            (83, 91, 102, 138, 65, 253),
             "update the module doc"
         );
     }
@@ -1745,7 +1746,8 @@ mod tests {
                         img in [any_f32(), any_f32(), any_f32()],
                         nav in proptest::array::uniform12(any_f32()),
                         condition in [any_f32(), any_f32()],
-                        contact in any::<bool>(), req in 0u8..4) -> Uplink {
+                        contact in any::<bool>(), ready in any::<bool>(),
+                        req in 0u8..4) -> Uplink {
             Uplink {
                 seq,
                 input: ControllerInput {
@@ -1761,6 +1763,7 @@ mod tests {
                         ..NavSample::from_array(nav)
                     },
                     probe_contact: contact,
+                    autopilot_ready: ready,
                     request: [ModeRequest::None, ModeRequest::Engage, ModeRequest::Abort,
                               ModeRequest::Reset][usize::from(req)],
                 },
@@ -1897,7 +1900,7 @@ mod tests {
         fn uplinks_round_trip(m in any_uplink()) {
             let mut buf = [0u8; MAX_FRAME_LEN];
             let frame = encode_uplink(&m, &mut buf).unwrap();
-            prop_assert!(frame.len() <= 90);
+            prop_assert!(frame.len() <= 91);
             prop_assert_eq!(bytes_of(&decode_uplink(frame).unwrap()), bytes_of(&m));
         }
 

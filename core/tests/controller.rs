@@ -126,6 +126,7 @@ impl Rig {
             },
             nav: self.nav,
             probe_contact: false,
+            autopilot_ready: true,
             request: ModeRequest::None,
         }
     }
@@ -1356,4 +1357,46 @@ fn a_non_finite_flight_condition_is_a_navigation_error_held_then_a_breakaway() {
         (out.mode, out.breakaway_reason),
         (Mode::Breakaway, Some(BreakawayReason::NavLost))
     );
+}
+
+/// The attitude-command loop flies only through an autopilot that follows its setpoints: an
+/// engage without it is refused (named, counted); an engaged receiver whose autopilot leaves
+/// that mode breaks away, named. The surface loops ignore the discrete.
+#[test]
+fn the_attitude_loop_engages_only_with_the_autopilot_following_and_breaks_away_when_it_leaves() {
+    use ibvs_core::attitude::{Command, InnerLoop};
+    let attitude = ControllerConfig {
+        inner_loop: InnerLoop::Attitude,
+        ..config()
+    };
+    let mut rig = Rig::new(attitude);
+    let out = rig.step_with(MID, |i| {
+        i.request = ModeRequest::Engage;
+        i.autopilot_ready = false;
+    });
+    assert_eq!(out.mode, Mode::Standby);
+    assert!(out.status.contains(StatusFlags::ENGAGE_REFUSED));
+    assert_eq!(rig.ctl.counters().engage_refused, 1);
+    assert!(matches!(out.command, Command::Attitude(_)));
+    let engaged = |m: Mode| !matches!(m, Mode::Standby | Mode::Breakaway);
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+    assert!(engaged(out.mode), "{:?}", out.mode);
+    for _ in 0..10 {
+        let out = rig.step_with(MID, |_| {});
+        assert!(engaged(out.mode), "{:?}", out.mode);
+    }
+    let out = rig.step_with(MID, |i| i.autopilot_ready = false);
+    assert_eq!(
+        (out.mode, out.breakaway_reason),
+        (Mode::Breakaway, Some(BreakawayReason::AutopilotMode))
+    );
+    // The surface loops do not depend on an autopilot.
+    let mut rig = Rig::new(config());
+    let out = rig.step_with(MID, |i| {
+        i.request = ModeRequest::Engage;
+        i.autopilot_ready = false;
+    });
+    assert!(engaged(out.mode), "{:?}", out.mode);
+    let out = rig.step_with(MID, |i| i.autopilot_ready = false);
+    assert!(engaged(out.mode), "{:?}", out.mode);
 }

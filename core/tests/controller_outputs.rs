@@ -48,6 +48,7 @@ fn approach_input(seq: u32, request: ModeRequest, nav: NavSample) -> ControllerI
         measurement: frame(seq, 0.05 + 1e-4 * (seq % 3) as f32, -0.02, 6.0),
         nav,
         probe_contact: false,
+        autopilot_ready: true,
         request,
     }
 }
@@ -143,6 +144,7 @@ fn pbvs_reconstructs_the_drogue_with_the_trim_pitch_of_the_scheduled_design() {
         measurement: frame(seq, 0.1, -0.05, 6.0),
         nav,
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::None,
     };
     ctl.step(&input(1));
@@ -223,6 +225,7 @@ impl Sortie {
             },
             nav,
             probe_contact: false,
+            autopilot_ready: true,
             request: if self.seq == 1 {
                 ModeRequest::Engage
             } else {
@@ -764,6 +767,7 @@ fn the_saturation_bits_name_exactly_the_channels_held_at_a_limit() {
             measurement: frame(seq, 0.05, -0.02, 6.0),
             nav,
             probe_contact: false,
+            autopilot_ready: true,
             request,
         };
         for seq in 1..40 {
@@ -879,6 +883,7 @@ fn a_step_holding_both_the_frame_and_the_navigation_reports_both() {
         },
         nav,
         probe_contact: false,
+        autopilot_ready: true,
         request,
     };
     let nav = NavSample::default();
@@ -929,6 +934,7 @@ fn a_standby_trim_outside_a_limit_is_reported_saturated() {
             ..NavSample::default()
         },
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::None,
     };
     assert_eq!(ctl.step(&input(1)).status.0, 0);

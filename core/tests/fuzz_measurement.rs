@@ -178,6 +178,7 @@ fn check_controller(frames: &[CameraMeasurement]) -> Result<(), TestCaseError> {
             measurement: *m,
             nav: NavSample::default(),
             probe_contact: false,
+            autopilot_ready: true,
             // Engage once (Reset, which forgets the sequence, is never sent here).
             request: if k == 0 {
                 ModeRequest::Engage

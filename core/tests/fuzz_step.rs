@@ -128,6 +128,7 @@ fn run_of_inputs() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                     },
                     nav,
                     probe_contact: contact,
+                    autopilot_ready: true,
                     request,
                 };
                 (step, input, repeat)

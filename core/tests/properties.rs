@@ -238,6 +238,7 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                     },
                     nav,
                     probe_contact,
+                    autopilot_ready: true,
                     request,
                 };
                 (step, input, repeat)
@@ -430,6 +431,7 @@ fn engages_on_first_step(
         measurement,
         nav,
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::Engage,
     });
     let engaged = match cfg.procedure {

@@ -522,7 +522,7 @@ mod tests {
         let c = measure::<NoCounter>();
         assert!(c.script_ok, "{c:?}");
         assert!(c.steps > 300, "{c:?}");
-        assert!((82..=98).contains(&c.measurement_frame_len), "{c:?}");
+        assert!((83..=99).contains(&c.measurement_frame_len), "{c:?}");
         assert!((102..=138).contains(&c.command_frame_len), "{c:?}");
         assert!((65..=253).contains(&c.telemetry_frame_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host

@@ -39,6 +39,7 @@ pub fn engage_input() -> ControllerInput {
         },
         nav: NavSample::default(),
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::Engage,
     }
 }

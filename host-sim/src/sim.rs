@@ -687,10 +687,12 @@ pub fn run_observed(
         {
             abort_called_s = Some(t);
         }
+        autopilot.set_following(!injector.autopilot_released());
         let input = ControllerInput {
             measurement,
             nav: injector.nav(nav.sample(&s.tanker, &x, t)),
             probe_contact: latched,
+            autopilot_ready: autopilot.follows_setpoints(),
             request: if abort_called_s.is_some() {
                 ModeRequest::Abort
             } else if engaged_before || breakaway_at.is_some() || latched {

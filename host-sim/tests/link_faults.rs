@@ -242,6 +242,7 @@ fn approach_input(cam_seq: u32, request: ModeRequest) -> ControllerInput {
         },
         nav: NavSample::default(),
         probe_contact: false,
+        autopilot_ready: true,
         request,
     }
 }

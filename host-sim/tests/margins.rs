@@ -114,6 +114,7 @@ fn core_flight(lp: &FlownLoop<'_>, cfg: &ControllerConfig, sign: f64) -> Vec<([f
         measurement: frame(1, at),
         nav: nav_sample(&[0.0; 9], condition),
         probe_contact: false,
+        autopilot_ready: true,
         request: ModeRequest::None,
     };
     ctl.step(&standby);
@@ -147,6 +148,7 @@ fn core_flight(lp: &FlownLoop<'_>, cfg: &ControllerConfig, sign: f64) -> Vec<([f
             measurement: frame(3 + k as u32, at),
             nav: nav_sample(&late, condition),
             probe_contact: false,
+            autopilot_ready: true,
             request: ModeRequest::None,
         };
         let out = ctl.step(&input);

@@ -64,3 +64,52 @@ fn the_autopilot_preset_docks_in_level_ii_turbulence() {
         .collect();
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// The autopilot leaving GUIDED mid-approach (a pilot's or a failsafe's mode change, 3 m
+/// from the drogue, then 1 m): the controller names the breakaway at once
+/// (`AutopilotMode`), and what the aircraft then does is the autopilot's (flying on alone,
+/// its cruise airspeed held); the referee, on the truth, finds no hazard. Measured: from 3 m
+/// the receiver's momentum carries the tip to 4 cm past the drogue's plane, slowly, inside
+/// the coupling without latching; from 1 m it latches (0.97 m/s, 0.041 m off centre).
+#[test]
+fn the_autopilot_leaving_guided_is_a_named_breakaway() {
+    use host_sim::world::faults::{FaultKind, SimFault};
+    use ibvs_core::{BreakawayReason, Mode};
+    for range_m in [3.0, 1.0] {
+        let s = sim::Scenario::ideal();
+        let mut c = Controller::new(through_the_autopilot()).expect("valid configuration");
+        let fault = SimFault::at_range(FaultKind::AutopilotModeChange, range_m, f64::INFINITY);
+        let run = sim::run_with_faults(&s, &mut c, &[fault]).expect("scenario runs");
+        let first_breakaway = run
+            .samples
+            .iter()
+            .find(|x| x.output.mode == Mode::Breakaway)
+            .expect("a breakaway");
+        assert_eq!(
+            first_breakaway.output.breakaway_reason,
+            Some(BreakawayReason::AutopilotMode),
+            "{range_m} m"
+        );
+        // At the step the fault began (its range), within one step.
+        let range_then = first_breakaway.drogue_from_tip_m.x;
+        assert!(
+            range_then <= range_m && range_then > range_m - 0.1,
+            "{range_m} m: broke away at {range_then} m"
+        );
+        let closest = run
+            .samples
+            .iter()
+            .map(|x| x.drogue_from_tip_m.x)
+            .fold(f64::INFINITY, f64::min);
+        eprintln!(
+            "{range_m} m: broke away at {range_then:.3} m, {:.2} s; closest {closest:.3} m; {:?}",
+            first_breakaway.time_s, run.summary
+        );
+        assert!(
+            run.verdict.hazards.is_empty(),
+            "{range_m} m: {:?}, {:?}",
+            run.summary,
+            run.verdict.hazards
+        );
+    }
+}

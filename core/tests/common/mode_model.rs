@@ -733,7 +733,7 @@ impl Model {
     }
 
     /// The rows both tables start with (a reset, an abort, the navigation lost, outside the
-    /// docking envelope), `engaged` as the procedure counts it: `Some(refused)` when one of
+    /// docking envelope, the autopilot not following), `engaged` as the procedure counts it: `Some(refused)` when one of
     /// them decided the step.
     fn common_rows(&mut self, input: &ControllerInput, engaged: bool) -> Option<bool> {
         if input.request == ModeRequest::Reset && self.mode != Mode::Standby {
@@ -745,6 +745,14 @@ impl Model {
         } else if !self.in_envelope() {
             if engaged {
                 self.break_away(BreakawayReason::OutsideDockingEnvelope);
+            } else {
+                return Some(self.mode == Mode::Standby && input.request == ModeRequest::Engage);
+            }
+        } else if self.cfg.inner_loop == ibvs_core::attitude::InnerLoop::Attitude
+            && !input.autopilot_ready
+        {
+            if engaged {
+                self.break_away(BreakawayReason::AutopilotMode);
             } else {
                 return Some(self.mode == Mode::Standby && input.request == ModeRequest::Engage);
             }

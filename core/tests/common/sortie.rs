@@ -119,6 +119,7 @@ pub fn sortie_sequence(cfg: ControllerConfig) -> impl Strategy<Value = Vec<Contr
                 },
                 nav: NavSample::default(),
                 probe_contact: false,
+                autopilot_ready: true,
                 request: if k == 0 {
                     ModeRequest::Engage
                 } else {

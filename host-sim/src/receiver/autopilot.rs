@@ -10,9 +10,10 @@
 //! (`PTCH2SRV_RLL`); the rudder coordinates the turn (`YAW2SRV_RLL`) and damps yaw
 //! (`YAW2SRV_DAMP`). The throttle passes through. Setpoints are limited to
 //! `ROLL_LIMIT_DEG`, `PTCH_LIM_MAX_DEG`, `PTCH_LIM_MIN_DEG`. Without a new setpoint for
-//! `GUIDED_TIMEOUT` the autopilot stops following the flight computer: wings level, the
-//! trim pitch and the last throttle (ArduPlane returns to its own guidance there; in a
-//! formation that is flying straight on).
+//! `GUIDED_TIMEOUT`, or out of the mode that follows setpoints, the autopilot flies on
+//! alone: wings level, the trim pitch and its cruise airspeed held with the throttle
+//! (ArduPlane returns to its own guidance there, TECS holding `AIRSPEED_CRUISE`; in a
+//! formation that is flying straight on at the formation's speed).
 //!
 //! The time constants, limits and the timeout are the autopilots' public defaults
 //! (`docs/models.md`, "Autopilot"); the rate gains are this airframe's (an autotune's job on
@@ -70,6 +71,13 @@ pub struct AutopilotParams {
     /// Without a new setpoint for this long the autopilot flies on alone, s
     /// (`GUIDED_TIMEOUT`, default 3).
     pub setpoint_timeout_s: f64,
+    /// Flying on alone, the airspeed it holds, m/s (`AIRSPEED_CRUISE`: the formation's,
+    /// the tanker's speed at the tuning point).
+    pub cruise_speed_mps: f64,
+    /// Flying on alone, throttle per m/s of airspeed error (the speed hold of its own
+    /// guidance, TECS's part; ours: a 2 s speed loop on the F-16's 5.65 m/s² per unit of
+    /// throttle).
+    pub speed_hold_gain: f64,
     /// Surface position limits `[elevator, aileron, rudder]`, rad (the servos' throw).
     pub surface_limits_rad: [f64; 3],
 }
@@ -93,6 +101,8 @@ impl Default for AutopilotParams {
             yaw_damping: 0.5,
             tuning_speed_mps: 120.0,
             setpoint_timeout_s: 3.0,
+            cruise_speed_mps: 120.0,
+            speed_hold_gain: 0.09,
             surface_limits_rad: [25f64.to_radians(), 21.5f64.to_radians(), 30f64.to_radians()],
         }
     }
@@ -108,6 +118,7 @@ impl AutopilotParams {
             self.max_pitch_rad,
             self.tuning_speed_mps,
             self.setpoint_timeout_s,
+            self.cruise_speed_mps,
         ];
         let non_negative = [
             self.roll_rate_ff,
@@ -119,6 +130,7 @@ impl AutopilotParams {
             self.pitch_turn_coordination,
             self.yaw_turn_coordination,
             self.yaw_damping,
+            self.speed_hold_gain,
         ];
         if !positive.iter().all(|v| v.is_finite() && *v > 0.0)
             || !self
@@ -148,10 +160,14 @@ pub struct Autopilot {
     integrator_rad: [f64; 3],
     /// The throttle last passed through.
     throttle: f64,
+    /// The trim throttle (its speed hold's base).
+    trim_throttle: f64,
     /// The trim pitch it holds when on its own, rad.
     trim_pitch_rad: f64,
     /// Setpoints it stopped following on a timeout.
     timeouts: u32,
+    /// In the mode that follows the flight computer (GUIDED).
+    following: bool,
 }
 
 impl Autopilot {
@@ -167,9 +183,26 @@ impl Autopilot {
             setpoint: None,
             integrator_rad: [trim.elevator_rad, trim.aileron_rad, trim.rudder_rad],
             throttle: trim.throttle,
+            trim_throttle: trim.throttle,
             trim_pitch_rad: trim_state.euler_rad.y,
             timeouts: 0,
+            following: true,
         }
+    }
+
+    /// Leaves (false) or re-enters (true) the mode that follows the setpoints. Out of it the
+    /// autopilot flies on alone (wings level, the trim pitch, the last throttle) and ignores
+    /// setpoints.
+    pub fn set_following(&mut self, following: bool) {
+        if !following {
+            self.setpoint = None;
+        }
+        self.following = following;
+    }
+
+    /// In the mode that follows the setpoints (what its heartbeat reports).
+    pub fn follows_setpoints(&self) -> bool {
+        self.following
     }
 
     /// Times it stopped following the flight computer for want of a setpoint.
@@ -178,11 +211,13 @@ impl Autopilot {
     }
 
     /// A setpoint received at `t_s`. Non-finite setpoints are refused (kept out; the
-    /// previous one ages toward the timeout).
+    /// previous one ages toward the timeout), and so is every setpoint out of the following
+    /// mode.
     pub fn receive(&mut self, sp: &AttitudeSetpoint, t_s: f64) -> bool {
-        let ok = [sp.roll_rad, sp.pitch_rad, sp.yaw_rad, sp.throttle]
-            .iter()
-            .all(|v| v.is_finite());
+        let ok = self.following
+            && [sp.roll_rad, sp.pitch_rad, sp.yaw_rad, sp.throttle]
+                .iter()
+                .all(|v| v.is_finite());
         if ok {
             self.setpoint = Some((*sp, t_s));
         }
@@ -193,6 +228,12 @@ impl Autopilot {
     /// integrators by `dt_s`.
     pub fn command(&mut self, x: &ReceiverState, t_s: f64, dt_s: f64) -> ReceiverCommand {
         let p = self.params;
+        let speed = x.vel_body_mps.norm().max(1.0);
+        let alone = |ap: &mut Self| {
+            // Its own guidance: wings level, the trim pitch, the cruise airspeed held.
+            ap.throttle = ap.trim_throttle + p.speed_hold_gain * (p.cruise_speed_mps - speed);
+            (0.0, ap.trim_pitch_rad)
+        };
         let (roll_sp, pitch_sp) = match self.setpoint {
             Some((sp, at)) if t_s - at <= p.setpoint_timeout_s => {
                 self.throttle = f64::from(sp.throttle);
@@ -201,9 +242,9 @@ impl Autopilot {
             Some(_) => {
                 self.timeouts += 1;
                 self.setpoint = None;
-                (0.0, self.trim_pitch_rad)
+                alone(self)
             }
-            None => (0.0, self.trim_pitch_rad),
+            None => alone(self),
         };
         let roll_sp = roll_sp.clamp(-p.max_roll_rad, p.max_roll_rad);
         let pitch_sp = pitch_sp.clamp(p.min_pitch_rad, p.max_pitch_rad);
@@ -213,7 +254,6 @@ impl Autopilot {
             x.rate_body_radps.y,
             x.rate_body_radps.z,
         ];
-        let speed = x.vel_body_mps.norm().max(1.0);
         // Dynamic pressure's ratio: surfaces are (V_ref / V)^2 as effective per radian.
         let scale = (p.tuning_speed_mps / speed).powi(2);
         let turn_rate = G_MPS2 / speed * phi.sin();

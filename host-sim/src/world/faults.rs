@@ -126,6 +126,10 @@ pub enum FaultKind {
         /// Largest rate, rad/s (throttle: fraction per s).
         rate_per_s: f64,
     },
+    /// The aircraft's autopilot leaves the mode that follows the flight computer's
+    /// setpoints (a pilot's or a failsafe's mode change; with the attitude-command inner
+    /// loop only): its heartbeat says so, and it flies on alone ([`crate::receiver::Autopilot`]).
+    AutopilotModeChange,
 }
 
 /// When a fault starts.
@@ -316,6 +320,11 @@ impl FaultInjector {
             self.frozen = None;
             out
         }
+    }
+
+    /// True while the autopilot has left the mode that follows the setpoints.
+    pub fn autopilot_released(&self) -> bool {
+        self.any(|k| matches!(k, FaultKind::AutopilotModeChange))
     }
 
     /// The navigation sample the flight computer receives this step.
