@@ -60,9 +60,11 @@ pub struct Schema {
 }
 
 /// The settings whose name carries no unit suffix: dimensionless, or a choice.
-const UNITLESS: [(&str, &str); 14] = [
+const UNITLESS: [(&str, &str); 16] = [
     ("procedure", "choice: \"refuelling\" | \"paper\""),
     ("law", "choice: \"ibvs\" | \"pbvs\""),
+    ("inner_loop", "choice: \"surfaces\" | \"attitude\""),
+    ("attitude.damping", "1 (damping ratio)"),
     ("ibvs.convergence_point", "1 (normalised image x, y)"),
     (
         "measurement.half_fov_x",
@@ -377,7 +379,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 47] = [
+        let cases: [(&str, &str); 57] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -550,6 +552,40 @@ mod tests {
             (
                 "estimator.bearing_bias_sigma_rad",
                 "[estimator]\nbearing_bias_sigma_rad = [0.01, 0.3]",
+            ),
+            (
+                "attitude.pitch_time_constant_s",
+                "[attitude]\npitch_time_constant_s = 61.0",
+            ),
+            (
+                "attitude.roll_time_constant_s",
+                "[attitude]\nroll_time_constant_s = 61.0",
+            ),
+            (
+                "attitude.flight_path_lag_s",
+                "[attitude]\nflight_path_lag_s = 61.0",
+            ),
+            (
+                "attitude.engine_time_constant_s",
+                "[attitude]\nengine_time_constant_s = 0.01",
+            ),
+            (
+                "attitude.vertical_bandwidth_radps",
+                "[attitude]\nvertical_bandwidth_radps = 20.0",
+            ),
+            (
+                "attitude.lateral_bandwidth_radps",
+                "[attitude]\nlateral_bandwidth_radps = 20.0",
+            ),
+            (
+                "attitude.forward_bandwidth_radps",
+                "[attitude]\nforward_bandwidth_radps = 20.0",
+            ),
+            ("attitude.damping", "[attitude]\ndamping = 2.5"),
+            ("attitude.max_bank_rad", "[attitude]\nmax_bank_rad = 0.8"),
+            (
+                "attitude.max_pitch_offset_rad",
+                "[attitude]\nmax_pitch_offset_rad = 0.4",
             ),
         ];
         let shaped = ["finite, > 0", "finite, >= 0", "finite (every element)"];

@@ -187,6 +187,7 @@ fn nav(_: &Sample, r: &StepRecord, _: &Recording) -> Option<Value> {
 fn input(_: &Sample, r: &StepRecord, _: &Recording) -> Option<Value> {
     Some(json!({
         "probe_contact": r.input.probe_contact,
+        "autopilot_ready": r.input.autopilot_ready,
         "request": to_value(r.input.request)?,
     }))
 }
@@ -306,8 +307,9 @@ const CHANNELS: &[ChannelDef] = &[
     ChannelDef {
         topic: "/controller/input",
         schema: "ibvs.core.InputDiscretes",
-        description: "The rest of the flight computer's input: the probe-contact discrete and \
-             the operator's mode request.",
+        description: "The rest of the flight computer's input: the probe-contact discrete, \
+             the autopilot-ready discrete (the attitude-command loop's autopilot follows its \
+             setpoints) and the operator's mode request.",
         message: input,
     },
     ChannelDef {

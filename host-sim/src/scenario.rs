@@ -2456,6 +2456,8 @@ mod tests {
             "envelope",
             "level2-abort",
             "mil-level2-abort",
+            "autopilot-level2",
+            "autopilot-mil-level2",
         ];
         for (name, _, _) in PRESETS {
             let d = ScenarioFile::load(name).unwrap().dispersion;
