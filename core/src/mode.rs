@@ -8,7 +8,7 @@
 //! | from | condition | to |
 //! |---|---|---|
 //! | any but standby | `Reset` request | Standby |
-//! | engaged (any but standby and breakaway) | `Abort` request | Breakaway(Abort) |
+//! | engaged (any but standby and breakaway) | `Abort` request | Breakaway(Abort); refuelling capture (terminal): the capture goes on and breaks away at its end (contact, or a no-go) |
 //! | engaged | navigation invalid for more than `hold_limit_steps` steps | Breakaway(NavLost) |
 //! | engaged | the latest valid navigation's flight condition outside the docking envelope | Breakaway(OutsideDockingEnvelope) |
 //! | standby | `Engage` request with the flight condition outside the docking envelope | Standby (refused) |
@@ -523,6 +523,9 @@ pub struct ModeMachine {
     mode_steps: u32,
     /// Refuelling: steps since engage.
     sortie_steps: u32,
+    /// Refuelling: an `Abort` came during the capture, inside the stopping distance, and
+    /// waits for the capture's end (contact or a no-go), where it breaks away.
+    abort_pending: bool,
 }
 
 impl ModeMachine {
@@ -580,10 +583,13 @@ impl ModeMachine {
         self.stable_steps = 0;
     }
 
-    /// A no-go: a missed approach, or on the last attempt the end of the sortie.
+    /// A no-go: a missed approach, or on the last attempt the end of the sortie (or, with
+    /// an abort waiting for the capture's end, the breakaway it asked for).
     fn no_go_to(&mut self, why: NoGoReason, refuel: &RefuellingConfig) {
         self.no_go = Some(why);
-        if self.attempt >= refuel.max_attempts {
+        if self.abort_pending {
+            self.break_away(BreakawayReason::Abort);
+        } else if self.attempt >= refuel.max_attempts {
             self.break_away(BreakawayReason::AttemptsExhausted);
         } else {
             self.enter(Mode::MissedApproach);
@@ -593,6 +599,12 @@ impl ModeMachine {
     fn break_away(&mut self, why: BreakawayReason) {
         self.enter(Mode::Breakaway);
         self.reason = Some(why);
+        self.abort_pending = false;
+    }
+
+    /// True while an `Abort` waits for the capture's end (refuelling; [`ModeMachine::advance`]).
+    pub fn abort_pending(&self) -> bool {
+        self.abort_pending
     }
 
     /// Advances the machine by one step of `ts_s` seconds, for the paper's procedure (the
@@ -635,11 +647,21 @@ impl ModeMachine {
             self.enter(Mode::Standby);
             self.attempt = 0;
             self.no_go = None;
+            self.abort_pending = false;
             return false;
         }
         if engaged && inp.request == ModeRequest::Abort {
-            self.break_away(BreakawayReason::Abort);
-            return false;
+            // In the refuelling procedure's capture the receiver is inside its stopping
+            // distance (the gate committed it where a no-go could no longer stop short of
+            // the plane): backing off now would carry the probe through the basket's rim.
+            // The capture goes on, and the abort breaks away at its end: at contact (the
+            // disconnect) or at a no-go.
+            if limits.procedure == Procedure::Refuelling && self.mode == Mode::Terminal {
+                self.abort_pending = true;
+            } else {
+                self.break_away(BreakawayReason::Abort);
+                return false;
+            }
         }
         if engaged && self.nav_invalid_steps > cfg.hold_limit_steps {
             self.break_away(BreakawayReason::NavLost);
@@ -875,7 +897,9 @@ impl ModeMachine {
                 }
             }
             Mode::Docked => {
-                if !inp.probe_contact {
+                if self.abort_pending {
+                    self.break_away(BreakawayReason::Abort);
+                } else if !inp.probe_contact {
                     self.break_away(BreakawayReason::ContactLost);
                 }
             }
@@ -1566,6 +1590,63 @@ mod tests {
         assert_eq!(
             fly(above(rc.rough_air_station_offset_tol_m), rough),
             Mode::PreContact
+        );
+    }
+
+    /// The tanker's breakaway call in the capture (inside the stopping distance) does not
+    /// reverse the receiver into the basket's rim: the capture goes on, and the call breaks
+    /// away at its end, a one-shot request included: at contact (the disconnect) and at a
+    /// no-go. Before the capture (the approach) it breaks away at once.
+    #[test]
+    fn an_abort_in_the_capture_waits_for_its_end() {
+        let cfg = ModeConfig::default();
+        let abort = |depth_m: f32| ModeInputs {
+            request: ModeRequest::Abort,
+            ..refuel_inputs(0.0, depth_m, 0.0)
+        };
+        // Contact after a one-shot call.
+        let (mut m, rc, lim) = refuelling_capture();
+        m.advance(&abort(0.5), &cfg, &rc, TS, &lim);
+        assert_eq!(m.mode(), Mode::Terminal);
+        assert!(m.abort_pending());
+        m.advance(&refuel_inputs(0.3, 0.3, 0.0), &cfg, &rc, TS, &lim);
+        assert_eq!(m.mode(), Mode::Terminal, "the capture goes on");
+        let contact = ModeInputs {
+            probe_contact: true,
+            ..refuel_inputs(0.0, 0.0, 0.0)
+        };
+        m.advance(&contact, &cfg, &rc, TS, &lim);
+        assert_eq!(m.mode(), Mode::Docked);
+        m.advance(&contact, &cfg, &rc, TS, &lim);
+        assert_eq!(
+            (m.mode(), m.breakaway_reason()),
+            (Mode::Breakaway, Some(BreakawayReason::Abort))
+        );
+        assert!(!m.abort_pending());
+        // A no-go after the call (past the plane): the breakaway, not a missed approach.
+        let (mut m, rc, lim) = refuelling_capture();
+        m.advance(&abort(0.5), &cfg, &rc, TS, &lim);
+        m.advance(
+            &refuel_inputs(0.0, -rc.overshoot_m - 0.01, 0.0),
+            &cfg,
+            &rc,
+            TS,
+            &lim,
+        );
+        assert_eq!(
+            (m.mode(), m.breakaway_reason(), m.no_go()),
+            (
+                Mode::Breakaway,
+                Some(BreakawayReason::Abort),
+                Some(NoGoReason::PassedDroguePlane)
+            )
+        );
+        // In the approach (before the commit) the call breaks away at once.
+        let (mut m, rc, lim) = refuelling_approach();
+        m.advance(&abort(3.0), &cfg, &rc, TS, &lim);
+        assert_eq!(
+            (m.mode(), m.breakaway_reason()),
+            (Mode::Breakaway, Some(BreakawayReason::Abort))
         );
     }
 

@@ -489,6 +489,8 @@ pub struct Model {
     stable: u32,
     mode_steps: u32,
     sortie_steps: u32,
+    /// An abort in the refuelling capture, waiting for its end.
+    abort_pending: bool,
     /// The gate's depth of the approach flown (`procedure::commit_depth` at its closing
     /// speed, chosen from the air as it starts), m.
     commit_depth: f64,
@@ -522,7 +524,7 @@ impl Model {
                 m.mode,
                 m.reason,
                 (m.meas_invalid, m.terminal_steps, m.attempt, m.no_go),
-                (m.stable, m.mode_steps, m.sortie_steps),
+                (m.stable, m.mode_steps, m.sortie_steps, m.abort_pending),
                 m.commit_depth.to_bits(),
             )
         };
@@ -575,6 +577,7 @@ impl Model {
             stable: 0,
             mode_steps: 0,
             sortie_steps: 0,
+            abort_pending: false,
             commit_depth: commit_depth(&cfg, cfg.refuelling.contact_speed_mps),
             filter: None,
             nav_bias: [0.0; 3],
@@ -730,15 +733,25 @@ impl Model {
 
     fn break_away(&mut self, r: BreakawayReason) {
         (self.mode, self.reason) = (Mode::Breakaway, Some(r));
+        self.abort_pending = false;
     }
 
     /// The rows both tables start with (a reset, an abort, the navigation lost, outside the
     /// docking envelope, the autopilot not following), `engaged` as the procedure counts it: `Some(refused)` when one of
     /// them decided the step.
     fn common_rows(&mut self, input: &ControllerInput, engaged: bool) -> Option<bool> {
+        // The refuelling capture defers an abort to its end (the core's `ModeMachine`).
+        let defer = engaged
+            && input.request == ModeRequest::Abort
+            && self.cfg.procedure == Procedure::Refuelling
+            && self.mode == Mode::Terminal;
+        if defer && input.request != ModeRequest::Reset {
+            self.abort_pending = true;
+        }
         if input.request == ModeRequest::Reset && self.mode != Mode::Standby {
             (self.mode, self.reason, self.attempt, self.no_go) = (Mode::Standby, None, 0, None);
-        } else if engaged && input.request == ModeRequest::Abort {
+            self.abort_pending = false;
+        } else if engaged && input.request == ModeRequest::Abort && !defer {
             self.break_away(BreakawayReason::Abort);
         } else if engaged && self.nav_invalid > self.cfg.modes.hold_limit_steps {
             self.break_away(BreakawayReason::NavLost);
@@ -930,7 +943,9 @@ impl Model {
         let brk = |m: &mut Self, r| m.break_away(r);
         let no_go = |m: &mut Self, r| {
             m.no_go = Some(r);
-            if m.attempt >= rc.max_attempts {
+            if m.abort_pending {
+                m.break_away(BreakawayReason::Abort);
+            } else if m.attempt >= rc.max_attempts {
                 (m.mode, m.reason) = (Mode::Breakaway, Some(BreakawayReason::AttemptsExhausted));
             } else {
                 m.mode = Mode::MissedApproach;
@@ -1067,6 +1082,7 @@ impl Model {
                         self.attempt += 1;
                     }
                 }
+                Mode::Docked if self.abort_pending => brk(self, BreakawayReason::Abort),
                 Mode::Docked if !input.probe_contact => brk(self, BreakawayReason::ContactLost),
                 Mode::Docked => {}
             }
