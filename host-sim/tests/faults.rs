@@ -515,12 +515,16 @@ fn a_fault_that_never_starts_leaves_the_run_unchanged() {
 }
 
 /// The tanker's breakaway call (`[abort] at_range_m`): made at the first step whose true range
-/// to the drogue is inside the given one, and flown at that very step (`Abort`), from the
-/// approach (2.0 m) and from the capture (0.5 m), in calm air. The referee judges where the
-/// breakaway goes, as for the faults (`known_gap`).
+/// to the drogue is inside the given one. From the approach (3.0 m, before the gate's commit
+/// depth of 2.5 m) it is flown at that very step (`Abort`). In the capture (2.0 m and 0.5 m:
+/// inside the stopping distance, where a breakaway would carry the probe through the
+/// basket's rim) the capture goes on and the call waits for its end: the probe enters the
+/// coupling, a docking for the referee with no hazard, made against the call (the disconnect
+/// follows at contact). Calm air; the referee judges, as for the faults.
 #[test]
-fn the_tankers_breakaway_call_is_flown_at_once_from_the_approach_and_the_capture() {
-    for range_m in [2.0, 0.5] {
+fn the_tankers_breakaway_call_is_flown_at_once_from_the_approach_and_after_the_capture() {
+    use ibvs_core::Mode;
+    for range_m in [3.0, 2.0, 0.5] {
         let mut f = ScenarioFile::load("calm").expect("preset");
         f.abort.at_range_m = Some(range_m);
         let flown = fly_file(&f, &[]);
@@ -532,17 +536,22 @@ fn the_tankers_breakaway_call_is_flown_at_once_from_the_approach_and_the_capture
             s[k].drogue_from_tip_m.x <= range_m && s[k - 1].drogue_from_tip_m.x > range_m,
             "{what}: the first step inside it"
         );
-        assert_eq!(breakaway_at(&flown.run), Some(called), "{what}");
-        if range_m > 1.0 {
+        if range_m > 2.5 {
+            assert_eq!(breakaway_at(&flown.run), Some(called), "{what}");
             assert_broke_away(&flown, "Abort", &what, &[]);
         } else {
-            // Known gap: 0.5 m is inside the stopping distance at the contact speed (about
-            // 1.4 m from 1 m/s, `docs/faults.md`): the breakaway cannot stop the receiver, and
-            // the probe enters the coupling (measured at 1.06 m/s, 0.015 m off), a docking for
-            // the referee, made against the call.
-            let s = &flown.run.summary;
-            assert_eq!(s.outcome, Outcome::Docked, "{what}: {s:?}");
-            assert_eq!(s.breakaway_reason.as_deref(), Some("Abort"), "{what}");
+            assert_eq!(
+                s[k].output.mode,
+                Mode::Terminal,
+                "{what}: the capture goes on"
+            );
+            let summary = &flown.run.summary;
+            assert_eq!(summary.outcome, Outcome::Docked, "{what}: {summary:?}");
+            assert!(
+                flown.run.verdict.hazards.is_empty(),
+                "{what}: {:?}",
+                flown.run.verdict.hazards
+            );
         }
     }
     // Without the key no call is made.
