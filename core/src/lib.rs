@@ -19,14 +19,17 @@
 //!                      outer::{ibvs, pbvs} or the procedure's guidance ─► desired velocity
 //!                                             ▼
 //!                      inner: LQR + integral action per channel (gains: generated,
-//!                        scheduled on the flight condition by `schedule`)
+//!                        scheduled on the flight condition by `schedule`), or
+//!                        attitude: setpoints for the aircraft's autopilot (`inner_loop`)
 //!                                             ▼
-//!                      actuator: absolute, saturated surface and throttle commands ─► ControllerOutput
+//!                      actuator: absolute, saturated surface and throttle commands, or
+//!                        the autopilot's attitude and throttle setpoints ─► ControllerOutput
 //! ```
 //!
 //! Invariants, for every input including NaN and infinity:
 //! - [`Controller::step`] never panics, never allocates and runs in bounded time;
-//! - every command it returns is finite and inside [`actuator::ActuatorLimits`];
+//! - every command it returns is finite and inside [`actuator::ActuatorLimits`] (setpoints:
+//!   inside [`attitude::AttitudeLoopConfig`]'s limits);
 //! - every rejected input is named ([`measurement::MeasurementError`], [`nav::NavError`]),
 //!   counted ([`controller::Counters`]) and answered as `docs/conventions.md` specifies.
 //!
