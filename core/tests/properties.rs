@@ -4,7 +4,8 @@
 //! subnormals, NaN and ±inf; sequence numbers, discretes and operator requests are arbitrary.
 //! For every step of every sequence, under the refuelling procedure (the default) and the
 //! paper's procedure with IBVS and with PBVS:
-//! - `step` does not panic and every command is finite and inside `cfg.actuators`;
+//! - `step` does not panic and every command is finite and inside `cfg.actuators` (the
+//!   attitude-command loop's setpoints inside `cfg.attitude`'s limits and the throttle's);
 //! - the desired velocity is finite and inside the velocity limits (breakaway included);
 //! - the integrators are finite and inside `integrator_limit_m`;
 //! - the counters are consistent: one step counted per call, every frame counted exactly once
@@ -26,6 +27,8 @@
 //! 256 cases per property by default (under a second in a debug build); set `PROPTEST_CASES`
 //! for a longer run.
 
+use ibvs_core::attitude::Command;
+use ibvs_core::config::largest_schedule_trim_angle_rad;
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{FlightCondition, NavSample};
@@ -55,6 +58,13 @@ fn refuelling_config() -> ControllerConfig {
 
 fn ibvs_config() -> ControllerConfig {
     ControllerConfig::paper()
+}
+
+fn attitude_config() -> ControllerConfig {
+    ControllerConfig {
+        inner_loop: ibvs_core::attitude::InnerLoop::Attitude,
+        ..ControllerConfig::default()
+    }
 }
 
 fn pbvs_config() -> ControllerConfig {
@@ -221,12 +231,19 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
         seq_step(),
         frame_content(),
         prop_oneof![15 => plausible_nav(), 1 => nav_anywhere(), 10 => wild_nav()],
-        prop::bool::weighted(0.3),
+        (prop::bool::weighted(0.3), prop::bool::weighted(0.95)),
         request(),
         prop_oneof![6 => Just(1_usize), 1 => 2_usize..40],
     )
         .prop_map(
-            |(step, (tracked, x, y, depth), nav, probe_contact, request, repeat)| {
+            |(
+                step,
+                (tracked, x, y, depth),
+                nav,
+                (probe_contact, autopilot_ready),
+                request,
+                repeat,
+            )| {
                 let input = ControllerInput {
                     measurement: CameraMeasurement {
                         seq: 0,
@@ -238,7 +255,7 @@ fn relative_input() -> impl Strategy<Value = (u32, ControllerInput, usize)> {
                     },
                     nav,
                     probe_contact,
-                    autopilot_ready: true,
+                    autopilot_ready,
                     request,
                 };
                 (step, input, repeat)
@@ -335,15 +352,41 @@ fn check_invariants(
         let after = *ctl.counters();
         let at = format!("step {k}, input {input:?}, output {out:?}");
 
-        for (i, v) in out.command.as_array().into_iter().enumerate() {
-            prop_assert!(v.is_finite(), "command {i} not finite: {at}");
-            prop_assert!(
-                act.min[i] <= v && v <= act.max[i],
-                "command {i} = {v} outside [{}, {}]: {at}",
-                act.min[i],
-                act.max[i]
-            );
+        match out.command {
+            Command::Surfaces(c) => {
+                for (i, v) in c.as_array().into_iter().enumerate() {
+                    prop_assert!(v.is_finite(), "command {i} not finite: {at}");
+                    prop_assert!(
+                        act.min[i] <= v && v <= act.max[i],
+                        "command {i} = {v} outside [{}, {}]: {at}",
+                        act.min[i],
+                        act.max[i]
+                    );
+                }
+            }
+            Command::Attitude(a) => {
+                let att = &cfg.attitude;
+                for v in [a.roll_rad, a.pitch_rad, a.yaw_rad, a.throttle] {
+                    prop_assert!(v.is_finite(), "setpoint not finite: {at}");
+                }
+                prop_assert!(a.roll_rad.abs() <= att.max_bank_rad, "bank: {at}");
+                prop_assert!(
+                    a.pitch_rad.abs()
+                        <= largest_schedule_trim_angle_rad() + att.max_pitch_offset_rad,
+                    "pitch: {at}"
+                );
+                prop_assert!(
+                    act.min[1] <= a.throttle && a.throttle <= act.max[1],
+                    "throttle: {at}"
+                );
+            }
         }
+        prop_assert_eq!(
+            matches!(out.command, Command::Attitude(_)),
+            cfg.inner_loop == ibvs_core::attitude::InnerLoop::Attitude,
+            "the configured inner loop's command: {}",
+            at
+        );
         prop_assert!(
             !out.status.contains(StatusFlags::NON_FINITE_COMMAND),
             "a computed command was not finite: {at}"
@@ -467,6 +510,18 @@ proptest! {
         nav in plausible_nav(),
     ) {
         engages_on_first_step(refuelling_config(), m, nav)?;
+    }
+
+    #[test]
+    fn attitude_step_keeps_its_invariants_on_arbitrary_inputs(inputs in input_sequence()) {
+        check_invariants(attitude_config(), &inputs)?;
+    }
+
+    #[test]
+    fn attitude_sorties_keep_their_invariants_in_every_mode(
+        inputs in wild_sortie(attitude_config()),
+    ) {
+        check_invariants(attitude_config(), &inputs)?;
     }
 
     #[test]
