@@ -231,10 +231,13 @@ pub struct AttitudeLoop {
     thrust_accel_mps2: f32,
 }
 
-/// `x` clamped to `[lo, hi]`, and the side it was clamped on.
+/// `x` clamped to `[lo, hi]` and the side it was clamped on; a value that is not finite is
+/// `fallback` (inside the limits), side 0, as the surface loops' saturation has it.
 #[inline(always)]
-fn limit(x: f32, lo: f32, hi: f32) -> (f32, i8) {
-    if x > hi {
+fn limit(x: f32, lo: f32, hi: f32, fallback: f32) -> (f32, i8) {
+    if !x.is_finite() {
+        (fallback, 0)
+    } else if x > hi {
         (hi, 1)
     } else if x < lo {
         (lo, -1)
@@ -285,7 +288,8 @@ impl AttitudeLoop {
     /// One step: the saturated setpoint for the scheduled trim `(trim_pitch_rad,
     /// trim_throttle)` and the throttle's limits, then the integrators advanced (each frozen
     /// while its setpoint is saturated and the update would push it further) and the thrust
-    /// model. Returns the setpoint and which setpoints saturated.
+    /// model. Returns the setpoint, which setpoints saturated, and whether the law's result
+    /// was not finite (the trim's setpoint then, as the surface loops' fallback).
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
@@ -297,18 +301,21 @@ impl AttitudeLoop {
         ts_s: f32,
         limit_m: f32,
         integrate: bool,
-    ) -> (AttitudeSetpoint, SetpointSaturation) {
+    ) -> (AttitudeSetpoint, SetpointSaturation, bool) {
         let [dp, dt, db] = self.law(d, i);
-        let (pitch, sp) = limit(dp, -cfg.max_pitch_offset_rad, cfg.max_pitch_offset_rad);
-        let (throttle, st) = limit(trim.1 + dt, throttle_limits.0, throttle_limits.1);
-        let (bank, sb) = limit(db, -cfg.max_bank_rad, cfg.max_bank_rad);
+        // A NaN (not reached with a validated navigation sample: defence in depth) is the
+        // trim's setpoint, flagged.
+        let non_finite = !(dp.is_finite() && dt.is_finite() && db.is_finite());
+        let (pitch, sp) = limit(dp, -cfg.max_pitch_offset_rad, cfg.max_pitch_offset_rad, 0.0);
+        let (throttle, st) = limit(trim.1 + dt, throttle_limits.0, throttle_limits.1, trim.1);
+        let (bank, sb) = limit(db, -cfg.max_bank_rad, cfg.max_bank_rad, 0.0);
         let side = [sp, st, sb];
         if integrate {
             let e = error(i);
             let k = [d.down.k_integral, d.forward.k_integral, d.right.k_integral];
             for c in 0..3 {
                 let de = e[c] * ts_s;
-                if f32::from(side[c]) * k[c] * de <= 0.0 {
+                if de.is_finite() && f32::from(side[c]) * k[c] * de <= 0.0 {
                     self.eta_m[c] = crate::num::clamp_sym(self.eta_m[c] + de, limit_m);
                 }
             }
@@ -323,7 +330,7 @@ impl AttitudeLoop {
             yaw_rad: i.psi_rad,
             throttle,
         };
-        (setpoint, side)
+        (setpoint, side, non_finite)
     }
 }
 
@@ -496,7 +503,7 @@ mod tests {
             velocity_mps: [50.0, -50.0, 50.0],
             ..AttitudeInputs::default()
         };
-        let (sp, side) = l.step(&d, &cfg, &big, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let (sp, side, _) = l.step(&d, &cfg, &big, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [1, 1, -1]);
         assert_eq!(sp.pitch_rad, 0.1 + cfg.max_pitch_offset_rad);
         assert_eq!(sp.throttle, 1.0);
@@ -507,7 +514,7 @@ mod tests {
             ..AttitudeInputs::default()
         };
         let mut l2 = l;
-        let (_, side) = l2.step(&d, &cfg, &back, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let (_, side, _) = l2.step(&d, &cfg, &back, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [-1, -1, 1]);
         // Saturated the other way and pushing further: frozen again.
         assert_eq!(l2.integrators_m(), [0.0; 3]);
@@ -516,9 +523,39 @@ mod tests {
             velocity_mps: [0.01, 0.01, 0.01],
             ..AttitudeInputs::default()
         };
-        let (_, side) = l.step(&d, &cfg, &small, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let (_, side, _) = l.step(&d, &cfg, &small, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [0, 0, 0]);
         assert!(l.integrators_m().iter().all(|e| *e > 0.0));
+    }
+
+    /// A law that is not finite (a NaN velocity: defence in depth, a validated sample has
+    /// none) gives the trim's setpoint, flagged, and leaves the integrators as they were.
+    #[test]
+    fn a_non_finite_law_flies_the_trim_and_says_so() {
+        let cfg = AttitudeLoopConfig::default();
+        let d = AttitudeDesign::new(&cfg, 120.0, 0.02);
+        let mut l = AttitudeLoop::default();
+        let nan = AttitudeInputs {
+            velocity_mps: [f32::NAN, f32::INFINITY, f32::NAN],
+            ..AttitudeInputs::default()
+        };
+        let (sp, side, non_finite) =
+            l.step(&d, &cfg, &nan, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        assert!(non_finite);
+        assert_eq!(side, [0, 0, 0]);
+        assert_eq!((sp.pitch_rad, sp.roll_rad, sp.throttle), (0.1, 0.0, 0.3));
+        assert_eq!(l.integrators_m(), [0.0; 3]);
+        let (_, _, non_finite) = l.step(
+            &d,
+            &cfg,
+            &AttitudeInputs::default(),
+            (0.1, 0.3),
+            (0.0, 1.0),
+            0.02,
+            10.0,
+            true,
+        );
+        assert!(!non_finite);
     }
 
     /// The bumpless engage returns the receiver's own pitch and bank and the trim throttle.
@@ -535,7 +572,7 @@ mod tests {
             psi_rad: 0.01,
         };
         l.preload(&d, &i, 10.0);
-        let (sp, _) = l.step(&d, &cfg, &i, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, false);
+        let (sp, _, _) = l.step(&d, &cfg, &i, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, false);
         assert!((sp.pitch_rad - 0.12).abs() < 1e-6, "{sp:?}");
         assert!((sp.roll_rad + 0.05).abs() < 1e-6, "{sp:?}");
         assert!((sp.throttle - 0.3).abs() < 1e-6, "{sp:?}");

@@ -964,7 +964,7 @@ impl Controller {
             }
             let a = &self.cfg.actuators;
             let before = self.attitude.integrators_m();
-            let (sp, side) = self.attitude.step(
+            let (sp, side, non_finite) = self.attitude.step(
                 &self.derived.attitude,
                 &self.cfg.attitude,
                 &inputs,
@@ -975,6 +975,7 @@ impl Controller {
                 integrate,
             );
             sat.side = [side[0], side[1], side[2], 0];
+            sat.non_finite = non_finite;
             let after = self.attitude.integrators_m();
             let frozen: [bool; 3] =
                 core::array::from_fn(|c| integrate && side[c] != 0 && after[c] == before[c]);
