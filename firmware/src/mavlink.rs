@@ -10,7 +10,7 @@
 //! dialect: `common` plus ArduPilot's messages, because `AOA_SSA` is ArduPilot's): their
 //! payload layout, CRC extra bytes and CRC are the crate's. This module finds frame
 //! boundaries byte by byte (so that it can count what it drops), asks the crate to check
-//! each frame's CRC and to decode the payloads it uses, and encodes only the two messages
+//! each frame's CRC and to decode the payloads it uses, and encodes only the three messages
 //! it sends.
 //!
 //! # Sent (flight computer to autopilot), [`Encoder`]
@@ -24,6 +24,10 @@
 //!   body in NED, yaw absolute = the tanker's track (true north, rad) + the setpoint's
 //!   heading; `thrust` = throttle (0..1); `type_mask` = 7 (the three body rates ignored,
 //!   attitude and thrust used); `time_boot_ms` from the caller.
+//! - `PARAM_REQUEST_READ` of a parameter by name ([`Encoder::param_request_read`]:
+//!   `param_id` the name, at most [`PARAM_ID_LEN`] bytes, `param_index` -1), to the
+//!   autopilot's system and component: the autopilot's attitude time constants ("Attitude
+//!   time constants" below), whose names [`AutopilotKind::time_constant_params`] gives.
 //!
 //! Every frame is MAVLink 2, unsigned, with the link's sequence number, which increments
 //! (wrapping at 255) per frame sent; a message that is refused (a named [`EncodeError`])
@@ -36,7 +40,8 @@
 //! MAVLink 1), frames with unsupported incompatibility flags, frames whose message id the
 //! dialect does not know (their CRC cannot be checked without its CRC extra), bad CRCs,
 //! frames from another system or another component of the autopilot's system, messages of
-//! the dialect this module does not use, payloads the crate refuses, and sequence gaps per
+//! the dialect this module does not use (a `PARAM_VALUE` of another parameter among them),
+//! payloads the crate refuses, refused attitude time constants, and sequence gaps per
 //! source component of the autopilot's system (frames dropped on the way). A frame with a
 //! bad CRC or bad flags is dropped whole and the parser looks for the next start byte (as
 //! MAVLink's C library does). Signed frames are accepted with their CRC checked and their
@@ -47,7 +52,9 @@
 //! with the time they arrived. [`Decoder::nav_sample`] builds an [`NavSample`] from them,
 //! perturbations from the trim at the sample's flight condition
 //! ([`ibvs_core::schedule::design_at`]), and [`Decoder::autopilot`] reports the autopilot's
-//! mode ([`AutopilotMode`]) and its age.
+//! mode ([`AutopilotMode`]) and its age, [`Decoder::autopilot_kind`] its software
+//! ([`AutopilotKind`]), and [`Decoder::attitude_time_constants`] the time constants read
+//! from its `PARAM_VALUE`s.
 //!
 //! # The navigation sample, field by field
 //!
@@ -83,6 +90,27 @@
 //! (`MAV_AUTOPILOT_PX4`) in OFFBOARD (main mode 6 in bits 16..23 of `custom_mode`). Any other
 //! autopilot or ArduPilot vehicle type is [`AutopilotMode::Unknown`].
 //!
+//! # Attitude time constants
+//!
+//! The attitude-command inner loop ([`ibvs_core::attitude::AttitudeLoopConfig`]) is designed
+//! on the autopilot's pitch and roll attitude-loop time constants, so it must be told the
+//! autopilot's real ones. The caller requests them by name and the decoder keeps each
+//! `PARAM_VALUE` answer, with the time it arrived:
+//!
+//! | autopilot ([`AutopilotKind`], from its `HEARTBEAT`) | pitch, s | roll, s |
+//! |---|---|---|
+//! | ArduPlane (`MAV_AUTOPILOT_ARDUPILOTMEGA`, `MAV_TYPE_FIXED_WING`) | `PTCH2SRV_TCONST` | `RLL2SRV_TCONST` |
+//! | PX4 (`MAV_AUTOPILOT_PX4`) | `FW_P_TC` | `FW_R_TC` |
+//!
+//! A `PARAM_VALUE` from the autopilot whose `param_id` (up to its first NUL) is one of the
+//! four names is kept as that axis's time constant when its `param_type` is
+//! `MAV_PARAM_TYPE_REAL32` and its value is finite and positive (a later one replaces it);
+//! otherwise it is counted in [`Counters::param_refused`] and the value kept before, if any,
+//! stays. A `PARAM_VALUE` of any other parameter is counted as unused.
+//! [`AttitudeTimeConstants::apply_to`] puts the values into an
+//! [`AttitudeLoopConfig`]; the caller validates the whole
+//! [`ibvs_core::config::ControllerConfig`] as for any other configuration change.
+//!
 //! Invariants: nothing here panics or allocates; every frame written is a whole MAVLink 2
 //! frame with a valid CRC, or nothing is written; every received byte is either part of a
 //! frame that was used or is counted; counters saturate rather than wrap; a [`NavSample`]
@@ -90,11 +118,12 @@
 
 use ::mavlink::dialects::ardupilotmega::{
     AOA_SSA_DATA, ATTITUDE_DATA, AttitudeTargetTypemask, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, MavAutopilot, MavMessage, MavModeFlag, MavState, MavType,
-    SET_ATTITUDE_TARGET_DATA, VFR_HUD_DATA,
+    LOCAL_POSITION_NED_DATA, MavAutopilot, MavMessage, MavModeFlag, MavParamType, MavState,
+    MavType, PARAM_REQUEST_READ_DATA, PARAM_VALUE_DATA, SET_ATTITUDE_TARGET_DATA, VFR_HUD_DATA,
 };
+use ::mavlink::types::CharArray;
 use ::mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message, MessageData, consts};
-use ibvs_core::attitude::AttitudeSetpoint;
+use ibvs_core::attitude::{AttitudeLoopConfig, AttitudeSetpoint};
 use ibvs_core::nav::{FlightCondition, LatNav, LonNav, NavSample};
 use ibvs_core::schedule::{self, ScheduleError};
 
@@ -123,6 +152,18 @@ pub const MAX_SENT_FRAME_LEN: usize = 12 + SET_ATTITUDE_TARGET_DATA::ENCODED_LEN
 #[allow(deprecated)]
 pub const CRC_EXTRA_ZERO_ID: u32 =
     ::mavlink::dialects::ardupilotmega::COMPONENT_INFORMATION_DATA::ID;
+
+/// Longest parameter name, bytes (`param_id` is `char[16]`, NUL-terminated when shorter).
+pub const PARAM_ID_LEN: usize = 16;
+
+/// ArduPlane's pitch-angle loop time constant parameter, s.
+pub const ARDUPLANE_PITCH_TC: &str = "PTCH2SRV_TCONST";
+/// ArduPlane's roll-angle loop time constant parameter, s.
+pub const ARDUPLANE_ROLL_TC: &str = "RLL2SRV_TCONST";
+/// PX4's pitch-angle loop time constant parameter, s.
+pub const PX4_PITCH_TC: &str = "FW_P_TC";
+/// PX4's roll-angle loop time constant parameter, s.
+pub const PX4_ROLL_TC: &str = "FW_R_TC";
 
 /// MAVLink 2's start byte.
 const STX_V2: u8 = ::mavlink::MAV_STX_V2;
@@ -167,6 +208,8 @@ pub enum EncodeError {
     NonFinite,
     /// The throttle is outside 0..1.
     ThrottleOutOfRange,
+    /// A parameter name that is empty, longer than [`PARAM_ID_LEN`] bytes or holds a NUL.
+    BadParamName,
 }
 
 /// The flight computer's side of the link: frames for the autopilot, with the link's
@@ -250,6 +293,22 @@ impl Encoder {
         self.frame(&data, buf)
     }
 
+    /// `PARAM_REQUEST_READ` of the parameter `name` (by name: `param_index` -1) to the
+    /// autopilot's system and component; the bytes written.
+    pub fn param_request_read(&mut self, name: &str, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        let bytes = name.as_bytes();
+        if bytes.is_empty() || bytes.len() > PARAM_ID_LEN || bytes.contains(&0) {
+            return Err(EncodeError::BadParamName);
+        }
+        let data = PARAM_REQUEST_READ_DATA {
+            param_index: -1,
+            target_system: self.ids.autopilot_system,
+            target_component: self.ids.autopilot_component,
+            param_id: CharArray::from(name),
+        };
+        self.frame(&data, buf)
+    }
+
     /// One MAVLink 2 frame of `data` from our ids into `buf`, then the next sequence number.
     fn frame<D: MessageData>(&mut self, data: &D, buf: &mut [u8]) -> Result<usize, EncodeError> {
         let header = MavHeader {
@@ -317,6 +376,9 @@ pub struct Counters {
     /// Good frames of a message this module reads whose payload the crate refused (an enum
     /// value it does not know).
     pub parse_errors: u32,
+    /// `PARAM_VALUE`s of an attitude time constant (module doc, "Attitude time constants")
+    /// refused: not `MAV_PARAM_TYPE_REAL32`, not finite, or not positive.
+    pub param_refused: u32,
     /// Frames missing from the autopilot system's components' sequence numbers.
     pub dropped: u32,
     /// Navigation samples refused because a required message never arrived.
@@ -349,6 +411,73 @@ pub enum Received {
     VfrHud,
     /// `AOA_SSA`.
     AoaSsa,
+    /// `PARAM_VALUE` of the autopilot's pitch or roll attitude time constant, kept.
+    TimeConstant(Axis),
+}
+
+/// An axis of the autopilot's attitude loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    /// Pitch (`PTCH2SRV_TCONST`, `FW_P_TC`).
+    Pitch,
+    /// Roll (`RLL2SRV_TCONST`, `FW_R_TC`).
+    Roll,
+}
+
+impl Axis {
+    /// The axis whose attitude time constant the parameter `name` is (any of the four names
+    /// of ArduPlane and PX4), or `None`.
+    pub fn of_time_constant(name: &[u8]) -> Option<Self> {
+        let is = |n: &str| name == n.as_bytes();
+        if is(ARDUPLANE_PITCH_TC) || is(PX4_PITCH_TC) {
+            Some(Self::Pitch)
+        } else if is(ARDUPLANE_ROLL_TC) || is(PX4_ROLL_TC) {
+            Some(Self::Roll)
+        } else {
+            None
+        }
+    }
+}
+
+/// A `param_id`'s name: its bytes up to the first NUL (all 16 when there is none).
+fn param_name(id: &[u8; PARAM_ID_LEN]) -> &[u8] {
+    let end = id.iter().position(|&b| b == 0).unwrap_or(PARAM_ID_LEN);
+    id.get(..end).unwrap_or(id)
+}
+
+/// The autopilot's attitude-loop time constants read from its parameters, s, and when each
+/// arrived (the caller's wrapping millisecond clock); `None` before a value is kept.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AttitudeTimeConstants {
+    /// Pitch-angle loop time constant, s (finite, positive).
+    pub pitch_s: Option<f32>,
+    /// Roll-angle loop time constant, s (finite, positive).
+    pub roll_s: Option<f32>,
+    /// When the pitch value arrived, ms.
+    pub pitch_at_ms: Option<u32>,
+    /// When the roll value arrived, ms.
+    pub roll_at_ms: Option<u32>,
+}
+
+impl AttitudeTimeConstants {
+    /// Whether both time constants have arrived.
+    pub const fn complete(&self) -> bool {
+        self.pitch_s.is_some() && self.roll_s.is_some()
+    }
+
+    /// `cfg` with its `pitch_time_constant_s` and `roll_time_constant_s` replaced by those
+    /// that arrived (a missing one keeps `cfg`'s). Only finite positive values are ever kept,
+    /// but no range is checked here: the caller puts the result into its
+    /// [`ibvs_core::config::ControllerConfig`] and validates the whole configuration
+    /// ([`ibvs_core::config::ControllerConfig::validate`]) before flying it, as for any other
+    /// configuration change.
+    pub fn apply_to(&self, cfg: AttitudeLoopConfig) -> AttitudeLoopConfig {
+        AttitudeLoopConfig {
+            pitch_time_constant_s: self.pitch_s.unwrap_or(cfg.pitch_time_constant_s),
+            roll_time_constant_s: self.roll_s.unwrap_or(cfg.roll_time_constant_s),
+            ..cfg
+        }
+    }
 }
 
 /// A message and the time it arrived (the caller's wrapping millisecond clock).
@@ -367,6 +496,8 @@ struct Latest {
     global: Option<Stamped<GLOBAL_POSITION_INT_DATA>>,
     vfr_hud: Option<Stamped<VFR_HUD_DATA>>,
     aoa_ssa: Option<Stamped<AOA_SSA_DATA>>,
+    pitch_tc: Option<Stamped<f32>>,
+    roll_tc: Option<Stamped<f32>>,
 }
 
 /// The autopilot's flight mode, as far as setpoints are concerned.
@@ -383,25 +514,57 @@ pub enum AutopilotMode {
     Unknown,
 }
 
+/// The autopilot's software, as far as its modes and parameters are concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AutopilotKind {
+    /// ArduPlane: `MAV_AUTOPILOT_ARDUPILOTMEGA`, `MAV_TYPE_FIXED_WING`.
+    ArduPlane,
+    /// PX4: `MAV_AUTOPILOT_PX4`, any vehicle type.
+    Px4,
+}
+
+impl AutopilotKind {
+    /// The kind of an autopilot's heartbeat; `None` for another autopilot or ArduPilot
+    /// vehicle type.
+    pub fn from_heartbeat(hb: &HEARTBEAT_DATA) -> Option<Self> {
+        match (hb.autopilot, hb.mavtype) {
+            (MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, MavType::MAV_TYPE_FIXED_WING) => {
+                Some(Self::ArduPlane)
+            }
+            (MavAutopilot::MAV_AUTOPILOT_PX4, _) => Some(Self::Px4),
+            _ => None,
+        }
+    }
+
+    /// The names of its pitch and roll attitude-loop time constant parameters (seconds),
+    /// in that order, for [`Encoder::param_request_read`].
+    pub const fn time_constant_params(self) -> [&'static str; 2] {
+        match self {
+            Self::ArduPlane => [ARDUPLANE_PITCH_TC, ARDUPLANE_ROLL_TC],
+            Self::Px4 => [PX4_PITCH_TC, PX4_ROLL_TC],
+        }
+    }
+}
+
 impl AutopilotMode {
     /// The mode of an autopilot's heartbeat.
     pub fn from_heartbeat(hb: &HEARTBEAT_DATA) -> Self {
-        match (hb.autopilot, hb.mavtype) {
-            (MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, MavType::MAV_TYPE_FIXED_WING) => {
+        match AutopilotKind::from_heartbeat(hb) {
+            Some(AutopilotKind::ArduPlane) => {
                 if hb.custom_mode == ARDUPLANE_GUIDED {
                     Self::Guided
                 } else {
                     Self::Other(hb.custom_mode)
                 }
             }
-            (MavAutopilot::MAV_AUTOPILOT_PX4, _) => {
+            Some(AutopilotKind::Px4) => {
                 if (hb.custom_mode >> 16) & 0xFF == PX4_MAIN_MODE_OFFBOARD {
                     Self::Offboard
                 } else {
                     Self::Other(hb.custom_mode)
                 }
             }
-            _ => Self::Unknown,
+            None => Self::Unknown,
         }
     }
 
@@ -642,6 +805,9 @@ impl Decoder {
 
     /// Decodes a good frame from the autopilot and keeps it.
     fn decode(&mut self, id: u32, now_ms: u32) -> Option<Received> {
+        if id == PARAM_VALUE_DATA::ID {
+            return self.param_value(now_ms);
+        }
         let payload = self.framer.raw.payload();
         let l = &mut self.latest;
         let got = match id {
@@ -670,6 +836,57 @@ impl Decoder {
                 None
             }
         }
+    }
+
+    /// A good `PARAM_VALUE` from the autopilot: an attitude time constant kept, or counted
+    /// (unused for another parameter, refused for a value that is not a finite positive
+    /// `REAL32`, a parse error for a payload the crate refused).
+    fn param_value(&mut self, now_ms: u32) -> Option<Received> {
+        let payload = self.framer.raw.payload();
+        let Ok(p) = PARAM_VALUE_DATA::deser(MavlinkVersion::V2, payload) else {
+            bump(&mut self.counters.parse_errors);
+            return None;
+        };
+        let Some(axis) = Axis::of_time_constant(param_name(&p.param_id)) else {
+            bump(&mut self.counters.unused);
+            return None;
+        };
+        let value = p.param_value;
+        let real = p.param_type == MavParamType::MAV_PARAM_TYPE_REAL32;
+        if !(real && value.is_finite() && value > 0.0) {
+            bump(&mut self.counters.param_refused);
+            return None;
+        }
+        let slot = match axis {
+            Axis::Pitch => &mut self.latest.pitch_tc,
+            Axis::Roll => &mut self.latest.roll_tc,
+        };
+        *slot = Some(Stamped {
+            value,
+            at_ms: now_ms,
+        });
+        bump(&mut self.counters.frames_used);
+        Some(Received::TimeConstant(axis))
+    }
+
+    /// The autopilot's attitude-loop time constants kept from its `PARAM_VALUE`s.
+    pub fn attitude_time_constants(&self) -> AttitudeTimeConstants {
+        let (p, r) = (&self.latest.pitch_tc, &self.latest.roll_tc);
+        AttitudeTimeConstants {
+            pitch_s: p.map(|s| s.value),
+            roll_s: r.map(|s| s.value),
+            pitch_at_ms: p.map(|s| s.at_ms),
+            roll_at_ms: r.map(|s| s.at_ms),
+        }
+    }
+
+    /// The autopilot's kind from its latest heartbeat; `None` before the first or for an
+    /// autopilot this module does not know ([`AutopilotKind::from_heartbeat`]).
+    pub fn autopilot_kind(&self) -> Option<AutopilotKind> {
+        self.latest
+            .heartbeat
+            .as_ref()
+            .and_then(|hb| AutopilotKind::from_heartbeat(&hb.value))
     }
 
     /// The autopilot's mode, whether it is armed and the age of its heartbeat at `now_ms`.

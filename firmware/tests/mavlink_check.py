@@ -7,13 +7,16 @@ Run by the firmware's host tests (firmware/src/mavlink/pymavlink.rs), not by han
       Decodes FRAMES.bin with pymavlink's `common` dialect (MAVLink 2), strictly: a bad CRC
       (pymavlink checks the CRC with each message's CRC extra), a bad length, bytes left over
       or a MAVLink 1 frame fails. Then compares every message, in order, with EXPECTED.json:
-      a list of {"name", "seq", "src_system", "src_component", "fields": {name: value}}.
-      Floats are compared as float32 (what the frame carries), exactly; lists element-wise.
+      a list of {"name", "seq", "src_system", "src_component", "fields": {name: value}} and
+      optionally "crc_extra" (the CRC extra our crate used, compared with pymavlink's).
+      Floats are compared as float32 (what the frame carries), exactly; lists element-wise;
+      char arrays as the strings pymavlink makes of them (up to the first NUL).
 
   mavlink_check.py make VALUES.json OUT.bin
       Encodes messages with pymavlink's `ardupilotmega` dialect (MAVLink 2; it has AOA_SSA)
       into OUT.bin: VALUES.json is {"src_system", "src_component", "messages":
-      [{"name", "fields": {...}}]}, each encoded by the dialect's `<name>_encode(**fields)`.
+      [{"name", "fields": {...}}]}, each encoded by the dialect's `<name>_encode(**fields)`
+      (a string given for a char-array field, such as PARAM_VALUE's param_id, as ASCII bytes).
 
 Exit status 0 on success; 1 with the reasons on stderr; 2 when pymavlink is missing
 (`pip install pymavlink`).
@@ -87,6 +90,8 @@ def check(frames_path, expected_path):
         crc.accumulate(struct.pack("B", m.crc_extra))
         if crc.crc != struct.unpack("<H", bytes(buf[-2:]))[0]:
             errors.append(f"{where}: CRC {crc.crc:#06x} does not match the frame's")
+        if "crc_extra" in want and m.crc_extra != want["crc_extra"]:
+            errors.append(f"{where}: CRC extra {m.crc_extra}, ours {want['crc_extra']}")
         fields = m.to_dict()
         for name, value in want["fields"].items():
             if name not in fields:
@@ -107,7 +112,13 @@ def make(values_path, out_path):
     )
     for m in values["messages"]:
         encode = getattr(mav, m["name"].lower() + "_encode")
-        mav.send(encode(**m["fields"]))
+        cls = ardupilotmega.mavlink_map[getattr(ardupilotmega, "MAVLINK_MSG_ID_" + m["name"])]
+        types = dict(zip(cls.fieldnames, cls.fieldtypes))
+        fields = {
+            k: v.encode("ascii") if types.get(k) == "char" and isinstance(v, str) else v
+            for k, v in m["fields"].items()
+        }
+        mav.send(encode(**fields))
     open(out_path, "wb").write(out.getvalue())
     print(f"pymavlink: {len(values['messages'])} messages, {len(out.getvalue())} bytes")
     return 0

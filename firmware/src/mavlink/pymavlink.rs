@@ -1,7 +1,8 @@
 //! The codec checked by an implementation we did not write: pymavlink
 //! (`firmware/tests/mavlink_check.py`). Our frames decoded by pymavlink's `common` dialect,
-//! field by field; pymavlink's frames (`ardupilotmega` dialect) decoded by ours into a
-//! navigation sample and the autopilot's mode. pymavlink missing fails the tests, saying how
+//! field by field (and the parameter requests' CRC extra compared with ours); pymavlink's
+//! frames (`ardupilotmega` dialect) decoded by ours into a navigation sample, the autopilot's
+//! mode and its attitude time constants. pymavlink missing fails the tests, saying how
 //! to install it (`pip install pymavlink`; `scripts/test-all.sh` does).
 #![allow(clippy::unwrap_used)]
 
@@ -153,20 +154,21 @@ fn autopilot_values() -> Value {
     })
 }
 
-#[test]
-fn our_decoder_reads_pymavlinks_frames_into_a_nav_sample_and_mode() {
-    require_pymavlink();
-    let (values_path, out) = (temp("values.json"), temp("autopilot.bin"));
-    std::fs::write(
-        &values_path,
-        serde_json::to_vec(&autopilot_values()).unwrap(),
-    )
-    .unwrap();
+/// pymavlink's frames of `values` (the script's `make`), written under this test's `name`.
+fn pymavlink_frames(name: &str, values: &Value) -> Vec<u8> {
+    let (values_path, out) = (temp(&format!("{name}.json")), temp(&format!("{name}.bin")));
+    std::fs::write(&values_path, serde_json::to_vec(values).unwrap()).unwrap();
     let (ok, text) = run(&["make".as_ref(), values_path.as_os_str(), out.as_os_str()]);
     assert!(ok, "pymavlink could not encode:\n{text}");
     let bytes = std::fs::read(&out).unwrap();
     let _ = (std::fs::remove_file(values_path), std::fs::remove_file(out));
+    bytes
+}
 
+#[test]
+fn our_decoder_reads_pymavlinks_frames_into_a_nav_sample_and_mode() {
+    require_pymavlink();
+    let bytes = pymavlink_frames("autopilot", &autopilot_values());
     let mut d = Decoder::new(LinkIds::default());
     let got: Vec<_> = bytes.iter().filter_map(|&b| d.push(b, 5000)).collect();
     assert_eq!(
@@ -219,5 +221,108 @@ fn our_decoder_reads_pymavlinks_frames_into_a_nav_sample_and_mode() {
     assert_eq!(
         (fix.alpha, fix.beta),
         (AlphaSource::AoaSsa, BetaSource::AoaSsa)
+    );
+}
+
+/// Our `PARAM_REQUEST_READ`s of both autopilots' time constants, with what pymavlink must
+/// read from each (its CRC extra ours).
+fn our_param_requests() -> (Vec<u8>, Vec<Value>) {
+    let mut e = Encoder::new(LinkIds::default());
+    let (mut bytes, mut expected) = (Vec::new(), Vec::new());
+    let mut buf = [0u8; MAX_SENT_FRAME_LEN];
+    let crc_extra = MavMessage::extra_crc(PARAM_REQUEST_READ_DATA::ID);
+    for kind in [AutopilotKind::ArduPlane, AutopilotKind::Px4] {
+        for name in kind.time_constant_params() {
+            let seq = e.next_sequence();
+            let n = e.param_request_read(name, &mut buf).unwrap();
+            bytes.extend_from_slice(&buf[..n]);
+            expected.push(
+                json!({"name": "PARAM_REQUEST_READ", "seq": seq, "src_system": 1,
+                "src_component": 191, "crc_extra": crc_extra,
+                "fields": {"target_system": 1, "target_component": 1, "param_id": name,
+                           "param_index": -1}}),
+            );
+        }
+    }
+    (bytes, expected)
+}
+
+#[test]
+fn pymavlink_decodes_our_param_requests() {
+    require_pymavlink();
+    let (bytes, expected) = our_param_requests();
+    let (ok, text) = check_stream("params", &bytes, &expected);
+    assert!(ok, "pymavlink check failed:\n{text}");
+    assert!(text.contains("4 messages checked, 0 errors"), "{text}");
+    // The check can fail: a CRC extra, a name or the index expected wrong.
+    for (field, wrong) in [
+        ("crc_extra", json!(215)),
+        ("param_id", json!("PTCH2SRV_TCONS")),
+        ("param_index", json!(0)),
+    ] {
+        let mut bad = expected.clone();
+        if field == "crc_extra" {
+            bad[0][field] = wrong;
+        } else {
+            bad[0]["fields"][field] = wrong;
+        }
+        let (ok, text) = check_stream("params-wrong", &bytes, &bad);
+        let said = if field == "crc_extra" {
+            "CRC extra"
+        } else {
+            field
+        };
+        assert!(
+            !ok && text.contains(said),
+            "a wrong {field} passed:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn our_decoder_reads_pymavlinks_param_values_into_the_time_constants() {
+    require_pymavlink();
+    let param = |id: &str, value: f32, param_type: u8| {
+        json!({"name": "PARAM_VALUE", "fields": {"param_id": id, "param_value": value,
+            "param_type": param_type, "param_count": 1200, "param_index": 300}})
+    };
+    let values = json!({
+        "src_system": 1, "src_component": 1,
+        "messages": [
+            param("RLL2SRV_TCONST", 0.42, 9),
+            param("PTCH2SRV_TCONST", 0.38, 9),
+            // Another parameter: unused; a zero time constant: refused.
+            param("RLL2SRV_RMAX", 75.0, 9),
+            param("PTCH2SRV_TCONST", 0.0, 9),
+        ]
+    });
+    let bytes = pymavlink_frames("params", &values);
+    let mut d = Decoder::new(LinkIds::default());
+    let got: Vec<_> = bytes.iter().filter_map(|&b| d.push(b, 900)).collect();
+    assert_eq!(
+        got,
+        [
+            Received::TimeConstant(Axis::Roll),
+            Received::TimeConstant(Axis::Pitch)
+        ]
+    );
+    let c = *d.counters();
+    assert_eq!(
+        (
+            c.frames_used,
+            c.unused,
+            c.param_refused,
+            c.bad_crc,
+            c.noise_bytes
+        ),
+        (2, 1, 1, 0, 0)
+    );
+    let tc = d.attitude_time_constants();
+    assert_eq!((tc.pitch_s, tc.roll_s), (Some(0.38), Some(0.42)));
+    assert_eq!((tc.pitch_at_ms, tc.roll_at_ms), (Some(900), Some(900)));
+    let cfg = tc.apply_to(ibvs_core::attitude::AttitudeLoopConfig::default());
+    assert_eq!(
+        (cfg.pitch_time_constant_s, cfg.roll_time_constant_s),
+        (0.38, 0.42)
     );
 }

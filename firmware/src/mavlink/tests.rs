@@ -580,3 +580,206 @@ fn wrap_pi_wraps() {
     assert!(close(wrap_pi(-3.0 * pi / 2.0), pi / 2.0, ABS));
     assert!(close(wrap_pi(0.3), 0.3, ABS));
 }
+
+/// `PARAM_VALUE` of `name` with `value` of `param_type`, from the autopilot.
+fn param_value(name: &str, value: f32, param_type: MavParamType) -> PARAM_VALUE_DATA {
+    PARAM_VALUE_DATA {
+        param_value: value,
+        param_count: 900,
+        param_index: 17,
+        param_id: CharArray::from(name),
+        param_type,
+    }
+}
+
+#[test]
+fn param_request_read_round_trips_by_name_to_the_autopilot() {
+    let ids = LinkIds {
+        autopilot_system: 7,
+        autopilot_component: 9,
+        ..LinkIds::default()
+    };
+    let mut e = Encoder::new(ids);
+    let mut buf = [0u8; MAX_SENT_FRAME_LEN];
+    for (i, kind) in [AutopilotKind::ArduPlane, AutopilotKind::Px4]
+        .into_iter()
+        .enumerate()
+    {
+        for (j, name) in kind.time_constant_params().into_iter().enumerate() {
+            let n = e.param_request_read(name, &mut buf).unwrap();
+            let (raw, msg) = crate_parse(&buf[..n]);
+            assert_eq!((raw.system_id(), raw.component_id()), (1, 191));
+            assert_eq!(usize::from(raw.sequence()), 2 * i + j);
+            let MavMessage::PARAM_REQUEST_READ(r) = msg else {
+                panic!("not PARAM_REQUEST_READ: {msg:?}")
+            };
+            assert_eq!(r.param_index, -1);
+            assert_eq!((r.target_system, r.target_component), (7, 9));
+            assert_eq!(r.param_id.to_str().unwrap(), name);
+        }
+    }
+    // A 16-character name fills param_id with no NUL.
+    let n = e.param_request_read("ABCDEFGHIJKLMNOP", &mut buf).unwrap();
+    let (_, msg) = crate_parse(&buf[..n]);
+    let MavMessage::PARAM_REQUEST_READ(r) = msg else {
+        panic!("not PARAM_REQUEST_READ: {msg:?}")
+    };
+    assert_eq!(&*r.param_id, b"ABCDEFGHIJKLMNOP");
+}
+
+#[test]
+fn the_time_constant_names_per_autopilot_kind() {
+    assert_eq!(
+        AutopilotKind::ArduPlane.time_constant_params(),
+        ["PTCH2SRV_TCONST", "RLL2SRV_TCONST"]
+    );
+    assert_eq!(
+        AutopilotKind::Px4.time_constant_params(),
+        ["FW_P_TC", "FW_R_TC"]
+    );
+    let kind = |ap, ty| AutopilotKind::from_heartbeat(&heartbeat(ap, ty, 0));
+    use MavAutopilot::{MAV_AUTOPILOT_ARDUPILOTMEGA as APM, MAV_AUTOPILOT_PX4 as PX4};
+    use MavType::{MAV_TYPE_FIXED_WING as PLANE, MAV_TYPE_QUADROTOR as QUAD};
+    assert_eq!(kind(APM, PLANE), Some(AutopilotKind::ArduPlane));
+    assert_eq!(kind(PX4, PLANE), Some(AutopilotKind::Px4));
+    assert_eq!(kind(APM, QUAD), None, "ArduCopter is not ArduPlane");
+    assert_eq!(kind(MavAutopilot::MAV_AUTOPILOT_GENERIC, PLANE), None);
+
+    let mut d = Decoder::new(LinkIds::default());
+    assert_eq!(d.autopilot_kind(), None, "no heartbeat yet");
+    let hb = frame_of(&heartbeat(PX4, PLANE, 0), 1, 1, 0);
+    feed(&mut d, &hb, 0);
+    assert_eq!(d.autopilot_kind(), Some(AutopilotKind::Px4));
+}
+
+#[test]
+fn bad_param_names_are_refused_and_use_no_sequence_number() {
+    let mut e = Encoder::new(LinkIds::default());
+    let mut buf = [0xAAu8; MAX_SENT_FRAME_LEN];
+    for name in ["", "ABCDEFGHIJKLMNOPQ", "FW\0P_TC"] {
+        assert_eq!(
+            e.param_request_read(name, &mut buf),
+            Err(EncodeError::BadParamName),
+            "{name:?}"
+        );
+    }
+    // MAVLink 2 trims the payload's trailing zeros: 12 + 4 + 7 ("FW_P_TC") bytes.
+    let mut short = [0u8; 22];
+    assert_eq!(
+        e.param_request_read(PX4_PITCH_TC, &mut short),
+        Err(EncodeError::BufferTooSmall {
+            needed: 23,
+            available: 22
+        })
+    );
+    assert!(buf.iter().all(|&b| b == 0xAA), "nothing written");
+    assert_eq!(e.next_sequence(), 0);
+}
+
+#[test]
+fn param_value_of_each_time_constant_sets_its_axis() {
+    let real = MavParamType::MAV_PARAM_TYPE_REAL32;
+    let cases = [
+        ("PTCH2SRV_TCONST", Axis::Pitch),
+        ("RLL2SRV_TCONST", Axis::Roll),
+        ("FW_P_TC", Axis::Pitch),
+        ("FW_R_TC", Axis::Roll),
+    ];
+    for (k, (name, axis)) in cases.into_iter().enumerate() {
+        let mut d = Decoder::new(LinkIds::default());
+        assert_eq!(
+            d.attitude_time_constants(),
+            AttitudeTimeConstants::default()
+        );
+        let value = 0.3 + 0.05 * k as f32;
+        let got = feed(
+            &mut d,
+            &frame_of(&param_value(name, value, real), 1, 1, 0),
+            40,
+        );
+        assert_eq!(got, [Received::TimeConstant(axis)], "{name}");
+        let tc = d.attitude_time_constants();
+        let (set, at, other) = match axis {
+            Axis::Pitch => (tc.pitch_s, tc.pitch_at_ms, tc.roll_s),
+            Axis::Roll => (tc.roll_s, tc.roll_at_ms, tc.pitch_s),
+        };
+        assert_eq!((set, at, other), (Some(value), Some(40), None), "{name}");
+        assert!(!tc.complete());
+        assert_eq!(d.counters().frames_used, 1);
+    }
+
+    // Both, then applied to the loop's configuration: only the two time constants change.
+    let mut d = Decoder::new(LinkIds::default());
+    let mut s = Stream { seq: 0 };
+    let bytes = [
+        s.frame(&param_value(ARDUPLANE_PITCH_TC, 0.4, real)),
+        s.frame(&param_value(ARDUPLANE_ROLL_TC, 0.45, real)),
+        // A later value replaces the earlier one.
+        s.frame(&param_value(ARDUPLANE_ROLL_TC, 0.35, real)),
+    ]
+    .concat();
+    feed(&mut d, &bytes, 7);
+    let tc = d.attitude_time_constants();
+    assert!(tc.complete());
+    let base = AttitudeLoopConfig::default();
+    let cfg = tc.apply_to(base);
+    assert_eq!(
+        (cfg.pitch_time_constant_s, cfg.roll_time_constant_s),
+        (0.4, 0.35)
+    );
+    assert_eq!(
+        AttitudeLoopConfig {
+            pitch_time_constant_s: base.pitch_time_constant_s,
+            roll_time_constant_s: base.roll_time_constant_s,
+            ..cfg
+        },
+        base
+    );
+    // None arrived: the configuration is unchanged.
+    assert_eq!(AttitudeTimeConstants::default().apply_to(base), base);
+}
+
+#[test]
+fn other_or_refused_param_values_are_counted_and_ignored() {
+    let real = MavParamType::MAV_PARAM_TYPE_REAL32;
+    let mut d = Decoder::new(LinkIds::default());
+    let mut s = Stream { seq: 0 };
+    let bytes = [
+        // Another parameter, and names that only start or end like one: unused.
+        s.frame(&param_value("PTCH2SRV_RMAX_UP", 0.4, real)),
+        s.frame(&param_value("FW_P_TC2", 0.4, real)),
+        s.frame(&param_value("_TC", 0.4, real)),
+        // Refused values of the right names.
+        s.frame(&param_value(PX4_PITCH_TC, f32::NAN, real)),
+        s.frame(&param_value(PX4_ROLL_TC, f32::INFINITY, real)),
+        s.frame(&param_value(ARDUPLANE_PITCH_TC, 0.0, real)),
+        s.frame(&param_value(ARDUPLANE_ROLL_TC, -0.5, real)),
+        s.frame(&param_value(
+            ARDUPLANE_ROLL_TC,
+            0.5,
+            MavParamType::MAV_PARAM_TYPE_INT32,
+        )),
+    ]
+    .concat();
+    assert!(feed(&mut d, &bytes, 0).is_empty());
+    let c = *d.counters();
+    assert_eq!((c.unused, c.param_refused), (3, 5));
+    assert_eq!((c.frames_used, c.parse_errors, c.bad_crc), (0, 0, 0));
+    assert_eq!(
+        d.attitude_time_constants(),
+        AttitudeTimeConstants::default()
+    );
+
+    // A good value is kept; a refused one after it leaves it in place.
+    let good = s.frame(&param_value(PX4_ROLL_TC, 0.6, real));
+    let zero = s.frame(&param_value(PX4_ROLL_TC, 0.0, real));
+    feed(&mut d, &[good, zero].concat(), 5);
+    assert_eq!(d.attitude_time_constants().roll_s, Some(0.6));
+    assert_eq!(d.counters().param_refused, 6);
+
+    // From another component of the autopilot's system: not read.
+    let gimbal = frame_of(&param_value(PX4_PITCH_TC, 0.6, real), 1, 154, 0);
+    feed(&mut d, &gimbal, 6);
+    assert_eq!(d.attitude_time_constants().pitch_s, None);
+    assert_eq!(d.counters().other_component, 1);
+}
