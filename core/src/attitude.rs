@@ -222,6 +222,20 @@ pub struct AttitudeInputs {
 /// Which setpoints hit a limit in a step, `[pitch, throttle, bank]`: `+1`, `-1` or `0`.
 pub type SetpointSaturation = [i8; 3];
 
+/// What one step of the loop gives: the setpoint and what it did to get it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AttitudeStep {
+    /// The saturated setpoint.
+    pub setpoint: AttitudeSetpoint,
+    /// Which setpoints hit a limit.
+    pub side: SetpointSaturation,
+    /// Which integrators `[down, forward, right]` were frozen (their update would have
+    /// pushed a limited setpoint further).
+    pub frozen: [bool; 3],
+    /// The law's result was not finite (the trim's setpoint flown instead).
+    pub non_finite: bool,
+}
+
 /// The loop's state: three integrators and the thrust model.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AttitudeLoop {
@@ -288,8 +302,9 @@ impl AttitudeLoop {
     /// One step: the saturated setpoint for the scheduled trim `(trim_pitch_rad,
     /// trim_throttle)` and the throttle's limits, then the integrators advanced (each frozen
     /// while its setpoint is saturated and the update would push it further) and the thrust
-    /// model. Returns the setpoint, which setpoints saturated, and whether the law's result
-    /// was not finite (the trim's setpoint then, as the surface loops' fallback).
+    /// model. Returns the setpoint, which setpoints saturated, which integrators froze, and
+    /// whether the law's result was not finite (the trim's setpoint then, as the surface
+    /// loops' fallback).
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
@@ -301,7 +316,7 @@ impl AttitudeLoop {
         ts_s: f32,
         limit_m: f32,
         integrate: bool,
-    ) -> (AttitudeSetpoint, SetpointSaturation, bool) {
+    ) -> AttitudeStep {
         let [dp, dt, db] = self.law(d, i);
         // A NaN (not reached with a validated navigation sample: defence in depth) is the
         // trim's setpoint, flagged.
@@ -310,12 +325,14 @@ impl AttitudeLoop {
         let (throttle, st) = limit(trim.1 + dt, throttle_limits.0, throttle_limits.1, trim.1);
         let (bank, sb) = limit(db, -cfg.max_bank_rad, cfg.max_bank_rad, 0.0);
         let side = [sp, st, sb];
+        let mut frozen = [false; 3];
         if integrate {
             let e = error(i);
             let k = [d.down.k_integral, d.forward.k_integral, d.right.k_integral];
             for c in 0..3 {
                 let de = e[c] * ts_s;
-                if de.is_finite() && f32::from(side[c]) * k[c] * de <= 0.0 {
+                frozen[c] = f32::from(side[c]) * k[c] * de > 0.0;
+                if de.is_finite() && !frozen[c] {
                     self.eta_m[c] = crate::num::clamp_sym(self.eta_m[c] + de, limit_m);
                 }
             }
@@ -330,7 +347,12 @@ impl AttitudeLoop {
             yaw_rad: i.psi_rad,
             throttle,
         };
-        (setpoint, side, non_finite)
+        AttitudeStep {
+            setpoint,
+            side,
+            frozen,
+            non_finite,
+        }
     }
 }
 
@@ -482,7 +504,7 @@ mod tests {
                 ..AttitudeInputs::default()
             };
             l.step(&d, &cfg, &i, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true)
-                .0
+                .setpoint
         };
         let sinking = run([0.5, 0.0, 0.0]);
         assert!(sinking.pitch_rad > 0.1, "{sinking:?}");
@@ -503,8 +525,14 @@ mod tests {
             velocity_mps: [50.0, -50.0, 50.0],
             ..AttitudeInputs::default()
         };
-        let (sp, side, _) = l.step(&d, &cfg, &big, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let AttitudeStep {
+            setpoint: sp,
+            side,
+            frozen,
+            ..
+        } = l.step(&d, &cfg, &big, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [1, 1, -1]);
+        assert_eq!(frozen, [true; 3]);
         assert_eq!(sp.pitch_rad, 0.1 + cfg.max_pitch_offset_rad);
         assert_eq!(sp.throttle, 1.0);
         assert_eq!(sp.roll_rad, -cfg.max_bank_rad);
@@ -514,7 +542,8 @@ mod tests {
             ..AttitudeInputs::default()
         };
         let mut l2 = l;
-        let (_, side, _) = l2.step(&d, &cfg, &back, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let AttitudeStep { side, .. } =
+            l2.step(&d, &cfg, &back, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [-1, -1, 1]);
         // Saturated the other way and pushing further: frozen again.
         assert_eq!(l2.integrators_m(), [0.0; 3]);
@@ -523,7 +552,8 @@ mod tests {
             velocity_mps: [0.01, 0.01, 0.01],
             ..AttitudeInputs::default()
         };
-        let (_, side, _) = l.step(&d, &cfg, &small, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let AttitudeStep { side, .. } =
+            l.step(&d, &cfg, &small, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert_eq!(side, [0, 0, 0]);
         assert!(l.integrators_m().iter().all(|e| *e > 0.0));
     }
@@ -539,22 +569,28 @@ mod tests {
             velocity_mps: [f32::NAN, f32::INFINITY, f32::NAN],
             ..AttitudeInputs::default()
         };
-        let (sp, side, non_finite) =
-            l.step(&d, &cfg, &nan, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
+        let AttitudeStep {
+            setpoint: sp,
+            side,
+            non_finite,
+            ..
+        } = l.step(&d, &cfg, &nan, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, true);
         assert!(non_finite);
         assert_eq!(side, [0, 0, 0]);
         assert_eq!((sp.pitch_rad, sp.roll_rad, sp.throttle), (0.1, 0.0, 0.3));
         assert_eq!(l.integrators_m(), [0.0; 3]);
-        let (_, _, non_finite) = l.step(
-            &d,
-            &cfg,
-            &AttitudeInputs::default(),
-            (0.1, 0.3),
-            (0.0, 1.0),
-            0.02,
-            10.0,
-            true,
-        );
+        let non_finite = l
+            .step(
+                &d,
+                &cfg,
+                &AttitudeInputs::default(),
+                (0.1, 0.3),
+                (0.0, 1.0),
+                0.02,
+                10.0,
+                true,
+            )
+            .non_finite;
         assert!(!non_finite);
     }
 
@@ -572,7 +608,9 @@ mod tests {
             psi_rad: 0.01,
         };
         l.preload(&d, &i, 10.0);
-        let (sp, _, _) = l.step(&d, &cfg, &i, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, false);
+        let sp = l
+            .step(&d, &cfg, &i, (0.1, 0.3), (0.0, 1.0), 0.02, 10.0, false)
+            .setpoint;
         assert!((sp.pitch_rad - 0.12).abs() < 1e-6, "{sp:?}");
         assert!((sp.roll_rad + 0.05).abs() < 1e-6, "{sp:?}");
         assert!((sp.throttle - 0.3).abs() < 1e-6, "{sp:?}");

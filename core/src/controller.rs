@@ -963,8 +963,7 @@ impl Controller {
                 self.attitude.preload(&self.derived.attitude, &inputs, lim);
             }
             let a = &self.cfg.actuators;
-            let before = self.attitude.integrators_m();
-            let (sp, side, non_finite) = self.attitude.step(
+            let out = self.attitude.step(
                 &self.derived.attitude,
                 &self.cfg.attitude,
                 &inputs,
@@ -974,12 +973,10 @@ impl Controller {
                 lim,
                 integrate,
             );
-            sat.side = [side[0], side[1], side[2], 0];
-            sat.non_finite = non_finite;
-            let after = self.attitude.integrators_m();
-            let frozen: [bool; 3] =
-                core::array::from_fn(|c| integrate && side[c] != 0 && after[c] == before[c]);
-            (sp, frozen)
+            let [p, t, b] = out.side;
+            sat.side = [p, t, b, 0];
+            sat.non_finite = out.non_finite;
+            (out.setpoint, out.frozen)
         };
         (
             Command::Attitude(setpoint),

@@ -29,9 +29,7 @@ use serde::{Deserialize, Serialize};
 use ibvs_core::attitude::AttitudeSetpoint;
 
 use super::state::{ReceiverCommand, ReceiverState};
-
-/// Standard gravity, m/s^2.
-const G_MPS2: f64 = 9.806_65;
+use crate::world::hose::STANDARD_GRAVITY_MPS2 as G_MPS2;
 
 /// The autopilot's parameters (the ArduPlane parameter each stands for in brackets).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
