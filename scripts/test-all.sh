@@ -44,7 +44,7 @@ if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-objdump
     apt-get update
     apt-get install -y --no-install-recommends qemu-system-arm binutils-arm-none-eabi
 fi
-# pymavlink: the MAVLink codec's cross-check (firmware/tests/mavlink_check.py). Debian's
+# pymavlink: the MAVLink codec's cross-check (autopilot-link/tests/mavlink_check.py). Debian's
 # python3 is "externally managed" (PEP 668), so pip is retried with --break-system-packages.
 if ! python3 -c 'import pymavlink' 2>/dev/null; then
     if ! command -v python3 >/dev/null || ! python3 -m pip --version >/dev/null 2>&1; then

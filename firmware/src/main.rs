@@ -45,7 +45,6 @@ pub mod store;
 // flight build does not carry); on the host always, for its tests.
 #[cfg(any(feature = "bench", not(target_os = "none")))]
 pub mod bench;
-pub mod mavlink;
 pub mod one_step;
 
 #[cfg(target_os = "none")]

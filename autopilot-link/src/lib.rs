@@ -1,10 +1,11 @@
-//! MAVLink 2 to an autopilot: attitude and throttle setpoints out, navigation in.
+//! # autopilot-link: MAVLink 2 to an autopilot: attitude and throttle setpoints out, navigation in.
 //!
 //! For docking through an existing autopilot (ArduPlane in GUIDED, PX4 in OFFBOARD) that
 //! accepts only attitude and thrust setpoints from an outside computer
 //! ([`ibvs_core::attitude`]). Board-independent: bytes in, bytes out, a millisecond clock
-//! from the caller; nothing here touches a UART (and nothing wires it into the application
-//! loop yet, `firmware/README.md`, "MAVLink 2 to the autopilot").
+//! from the caller; nothing here touches a UART. The firmware's application and the
+//! simulator's in-process flight computer both use it, so that processor-in-the-loop runs
+//! can be compared with in-process ones bit for bit.
 //!
 //! The messages are the `mavlink` crate's (rust-mavlink, `no_std`, its `ardupilotmega`
 //! dialect: `common` plus ArduPilot's messages, because `AOA_SSA` is ArduPilot's): their
@@ -115,6 +116,8 @@
 //! frame with a valid CRC, or nothing is written; every received byte is either part of a
 //! frame that was used or is counted; counters saturate rather than wrap; a [`NavSample`]
 //! returned was built only from messages younger than their configured ages, and is finite.
+
+#![cfg_attr(not(test), no_std)]
 
 use ::mavlink::dialects::ardupilotmega::{
     AOA_SSA_DATA, ATTITUDE_DATA, AttitudeTargetTypemask, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA,

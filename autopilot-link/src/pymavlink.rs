@@ -1,5 +1,5 @@
 //! The codec checked by an implementation we did not write: pymavlink
-//! (`firmware/tests/mavlink_check.py`). Our frames decoded by pymavlink's `common` dialect,
+//! (`autopilot-link/tests/mavlink_check.py`). Our frames decoded by pymavlink's `common` dialect,
 //! field by field (and the parameter requests' CRC extra compared with ours); pymavlink's
 //! frames (`ardupilotmega` dialect) decoded by ours into a navigation sample, the autopilot's
 //! mode and its attitude time constants. pymavlink missing fails the tests, saying how
