@@ -52,7 +52,7 @@
 //! `ATTITUDE`, `LOCAL_POSITION_NED`, `GLOBAL_POSITION_INT`, `VFR_HUD` and `AOA_SSA` are kept
 //! with the time they arrived. [`Decoder::nav_sample`] builds an [`NavSample`] from them,
 //! perturbations from the trim at the sample's flight condition
-//! ([`ibvs_core::schedule::design_at`]), and [`Decoder::autopilot`] reports the autopilot's
+//! ([`ibvs_core::schedule::trim_at`]), and [`Decoder::autopilot`] reports the autopilot's
 //! mode ([`AutopilotMode`]) and its age, [`Decoder::autopilot_kind`] its software
 //! ([`AutopilotKind`]), and [`Decoder::attitude_time_constants`] the time constants read
 //! from its `PARAM_VALUE`s.
@@ -130,8 +130,14 @@ use ibvs_core::attitude::{AttitudeLoopConfig, AttitudeSetpoint};
 use ibvs_core::nav::{FlightCondition, LatNav, LonNav, NavSample};
 use ibvs_core::schedule::{self, ScheduleError};
 
+pub mod peer;
+pub mod session;
+
 /// Period of our `HEARTBEAT`, ms (1 Hz).
 pub const HEARTBEAT_PERIOD_MS: u32 = 1000;
+
+/// Length of a `HEARTBEAT`'s payload, bytes.
+pub const HEARTBEAT_DATA_LEN: usize = HEARTBEAT_DATA::ENCODED_LEN;
 
 /// `MAV_COMP_ID_ONBOARD_COMPUTER`: our component id.
 pub const COMP_ID_ONBOARD_COMPUTER: u8 = 191;
@@ -354,45 +360,10 @@ pub fn wrap_pi(angle: f32) -> f32 {
     libm::remainderf(angle, core::f32::consts::TAU)
 }
 
-/// Everything the decoder received and did not use, and why; and the navigation samples it
-/// could not build. Each counter saturates at `u32::MAX`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Counters {
-    /// Frames used: from the autopilot, CRC good, a message this module reads, decoded.
-    pub frames_used: u32,
-    /// Bytes outside any MAVLink 2 frame (line noise, MAVLink 1 frames, a lost start).
-    pub noise_bytes: u32,
-    /// Frames with incompatibility flags other than signing (dropped whole).
-    pub bad_flags: u32,
-    /// Frames whose message id the dialect does not know (their CRC cannot be checked).
-    pub unknown_id: u32,
-    /// Frames of a known message whose CRC is wrong.
-    pub bad_crc: u32,
-    /// Signed frames accepted with their signature unchecked.
-    pub signed_unverified: u32,
-    /// Good frames from a system other than the autopilot's.
-    pub other_system: u32,
-    /// Good frames from another component of the autopilot's system.
-    pub other_component: u32,
-    /// Good frames of messages of the dialect this module does not read.
-    pub unused: u32,
-    /// Good frames of a message this module reads whose payload the crate refused (an enum
-    /// value it does not know).
-    pub parse_errors: u32,
-    /// `PARAM_VALUE`s of an attitude time constant (module doc, "Attitude time constants")
-    /// refused: not `MAV_PARAM_TYPE_REAL32`, not finite, or not positive.
-    pub param_refused: u32,
-    /// Frames missing from the autopilot system's components' sequence numbers.
-    pub dropped: u32,
-    /// Navigation samples refused because a required message never arrived.
-    pub nav_missing: u32,
-    /// Navigation samples refused because a required message was too old.
-    pub nav_stale: u32,
-    /// Navigation samples refused because the condition is outside the schedule.
-    pub nav_schedule: u32,
-    /// Navigation samples refused because a value was not finite.
-    pub nav_non_finite: u32,
-}
+/// Everything the decoder received and did not use, and why; the navigation samples it
+/// could not build; and the session's setpoints refused and frames dropped: the telemetry
+/// frame's [`ibvs_core::wire::AutopilotLinkCounters`], filled here.
+pub use ibvs_core::wire::AutopilotLinkCounters as Counters;
 
 /// Adds one to a counter, saturating.
 fn bump(counter: &mut u32) {
@@ -996,7 +967,7 @@ fn kinematics(l: &Latest, now_ms: u32, cfg: &NavConfig) -> Result<Kinematics, Na
 }
 
 /// ISA density ratio at `altitude_m` (troposphere formula, clamped to -500..11000 m).
-fn isa_density_ratio(altitude_m: f32) -> f32 {
+pub(crate) fn isa_density_ratio(altitude_m: f32) -> f32 {
     let h = altitude_m.clamp(-500.0, 11_000.0);
     libm::powf(1.0 - 2.255_77e-5 * h, 4.255_88)
 }
@@ -1029,9 +1000,7 @@ fn build_nav(l: &Latest, now_ms: u32, cfg: &NavConfig) -> Result<NavFix, NavBuil
         NavSource::AirData,
     )?;
     let condition = condition(hud);
-    let trim = schedule::design_at(condition)
-        .map_err(NavBuildError::Schedule)?
-        .trim;
+    let trim = schedule::trim_at(condition).map_err(NavBuildError::Schedule)?;
     let aoa = fresh(&l.aoa_ssa, now_ms, cfg.aoa_max_age_ms, NavSource::AirData).ok();
     let [vn, ve, vd] = kin.v_ned;
     let ground_speed = libm::hypotf(vn, ve);

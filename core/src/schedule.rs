@@ -237,6 +237,26 @@ pub fn check(condition: FlightCondition) -> Result<(), ScheduleError> {
 
 /// The design at `condition`, interpolated in its cell of the grid.
 pub fn design_at(condition: FlightCondition) -> Result<DesignPoint, ScheduleError> {
+    let (corners, w) = cell(condition)?;
+    Ok(DesignPoint::blend(corners, w))
+}
+
+/// The trim alone at `condition`: `design_at(condition)?.trim`, bit for bit, at a tenth of
+/// its cost (for a navigation source that reports absolute angles and needs the trim they
+/// are perturbations from every sample).
+pub fn trim_at(condition: FlightCondition) -> Result<TrimPoint, ScheduleError> {
+    let (n, w) = cell(condition)?;
+    Ok(TrimPoint::blend(
+        [&n[0].trim, &n[1].trim, &n[2].trim, &n[3].trim],
+        w,
+    ))
+}
+
+/// The four nodes of `condition`'s cell (`[n00, n10, n01, n11]`, speed index first) and its
+/// fractions in the cell.
+fn cell(
+    condition: FlightCondition,
+) -> Result<([&'static DesignPoint; 4], (f32, f32)), ScheduleError> {
     check(condition)?;
     let FlightCondition {
         true_airspeed_mps: v,
@@ -254,9 +274,7 @@ pub fn design_at(condition: FlightCondition) -> Result<DesignPoint, ScheduleErro
     let i1 = (i + 1).min(SCHEDULE_SPEEDS_MPS.len() - 1);
     let j1 = (j + 1).min(SCHEDULE_ALTITUDES_M.len() - 1);
     match (node(j, i), node(j, i1), node(j1, i), node(j1, i1)) {
-        (Some(n00), Some(n10), Some(n01), Some(n11)) => {
-            Ok(DesignPoint::blend([n00, n10, n01, n11], (s, t)))
-        }
+        (Some(n00), Some(n10), Some(n01), Some(n11)) => Ok(([n00, n10, n01, n11], (s, t))),
         // `locate` keeps both indices inside the grid; unreachable, refused rather than
         // panicking.
         _ => Err(ScheduleError::NonFinite),
@@ -281,6 +299,25 @@ mod tests {
                 assert_eq!(at(v, h), Ok(SCHEDULE[j][i]), "node {v} m/s, {h} m");
             }
         }
+    }
+
+    #[test]
+    fn the_trim_alone_is_the_designs_trim_bit_for_bit() {
+        let (v, h) = envelope();
+        for k in 0..=20 {
+            for l in 0..=20 {
+                let c = FlightCondition {
+                    true_airspeed_mps: v[0] + (v[1] - v[0]) * k as f32 / 20.0,
+                    altitude_m: h[0] + (h[1] - h[0]) * l as f32 / 20.0,
+                };
+                assert_eq!(trim_at(c), design_at(c).map(|d| d.trim), "{c:?}");
+            }
+        }
+        let below = FlightCondition {
+            true_airspeed_mps: v[0] - 1.0,
+            altitude_m: h[0],
+        };
+        assert_eq!(trim_at(below), Err(ScheduleError::AirspeedLow));
     }
 
     #[test]

@@ -226,6 +226,59 @@ pub struct Cost {
     pub encode_prev: u32,
 }
 
+/// The MAVLink link to an autopilot (the `autopilot-link` crate, flying the attitude-command
+/// inner loop), since reset: everything its decoder received and did not use, and why; the
+/// navigation samples it could not build; the setpoints it could not encode and the frames
+/// its transmit queue refused. Each counter saturates at `u32::MAX`. All zero when the link
+/// is not used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AutopilotLinkCounters {
+    /// Frames used: from the autopilot, CRC good, a message this module reads, decoded.
+    pub frames_used: u32,
+    /// Bytes outside any MAVLink 2 frame (line noise, MAVLink 1 frames, a lost start).
+    pub noise_bytes: u32,
+    /// Frames with incompatibility flags other than signing (dropped whole).
+    pub bad_flags: u32,
+    /// Frames whose message id the dialect does not know (their CRC cannot be checked).
+    pub unknown_id: u32,
+    /// Frames of a known message whose CRC is wrong.
+    pub bad_crc: u32,
+    /// Signed frames accepted with their signature unchecked.
+    pub signed_unverified: u32,
+    /// Good frames from a system other than the autopilot's.
+    pub other_system: u32,
+    /// Good frames from another component of the autopilot's system.
+    pub other_component: u32,
+    /// Good frames of messages of the dialect this module does not read.
+    pub unused: u32,
+    /// Good frames of a message this module reads whose payload the crate refused (an enum
+    /// value it does not know).
+    pub parse_errors: u32,
+    /// `PARAM_VALUE`s of an attitude time constant (`autopilot-link`, "Attitude time constants")
+    /// refused: not `MAV_PARAM_TYPE_REAL32`, not finite, or not positive.
+    pub param_refused: u32,
+    /// Frames missing from the autopilot system's components' sequence numbers.
+    pub dropped: u32,
+    /// Navigation samples refused because a required message never arrived.
+    pub nav_missing: u32,
+    /// Navigation samples refused because a required message was too old.
+    pub nav_stale: u32,
+    /// Navigation samples refused because the condition is outside the schedule.
+    pub nav_schedule: u32,
+    /// Navigation samples refused because a value was not finite.
+    pub nav_non_finite: u32,
+    /// Setpoints not sent: the command was not finite or its throttle outside 0..1 (never
+    /// from the core, whose commands are checked; counted rather than assumed).
+    pub setpoints_refused: u32,
+    /// Frames to the autopilot its transmit queue could not take whole (dropped, never sent
+    /// in part).
+    pub tx_dropped: u32,
+    /// Receiver errors on the autopilot's serial port (hardware overrun, noise, framing;
+    /// receive queue full): bytes lost before the decoder.
+    pub rx_errors: u32,
+}
+
 /// Running counts of the link's receive side and schedule, since reset (saturating).
 /// Nothing received is dropped without a count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -431,6 +484,9 @@ pub struct Telemetry {
     /// [`Counters::tip_sight_used`] says from how many sightings). A calibration changes
     /// over minutes, not steps: it travels here, not in every command frame.
     pub probe_tip_image: [f32; 2],
+    /// The MAVLink link to the autopilot (all zero unless the attitude-command inner loop
+    /// flies through it).
+    pub autopilot: AutopilotLinkCounters,
 }
 
 /// Free-running: a changed counter is sent at most this often, control periods (10 = 200 ms,

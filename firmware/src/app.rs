@@ -73,18 +73,21 @@
 //! the no-panic link check covers [`App::run`]); every command sent is the core's (finite,
 //! inside the actuator limits) or the trim.
 
+use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
 use embedded_io::{Read, ReadReady};
 use ibvs_core::Counters;
 use ibvs_core::actuator::ActuatorCommand;
 use ibvs_core::attitude::Command;
+use ibvs_core::attitude::InnerLoop;
 use ibvs_core::config::trim_command;
+use ibvs_core::gains::CONTROL_PERIOD_S;
 use ibvs_core::measurement::SequenceTracker;
 use ibvs_core::nav::NavSample;
 use ibvs_core::wire::{
-    ClockSource, ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit, Downlink, FrameDecoder,
-    FrameKind, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause, TELEMETRY_MAX_PERIODS,
-    TELEMETRY_MIN_PERIODS, Telemetry, Uplink, WireError, config_from_bytes, config_id,
-    encode_config_report, encode_downlink, encode_telemetry,
+    AutopilotLinkCounters, ClockSource, ConfigReport, ConfigStatus, ConfigStorage, Cost, CostUnit,
+    Downlink, FrameDecoder, FrameKind, LinkCounters, LinkStatus, MAX_FRAME_LEN, ResetCause,
+    TELEMETRY_MAX_PERIODS, TELEMETRY_MIN_PERIODS, Telemetry, Uplink, WireError, config_from_bytes,
+    config_id, encode_config_report, encode_downlink, encode_telemetry,
 };
 use ibvs_core::{
     BreakawayReason, ConfigError, Controller, ControllerConfig, ControllerInput, ControllerOutput,
@@ -223,6 +226,8 @@ pub enum Event {
 pub trait Board {
     /// The receive side of the serial link to the peer.
     type Link: Read + ReadReady;
+    /// The receive side of the serial link to the autopilot (MAVLink 2).
+    type Autopilot: Read + ReadReady;
     /// The cost counter.
     type Counter: CostCounter;
     /// The link's receive side.
@@ -231,6 +236,13 @@ pub trait Board {
     /// it in the background); [`QueueFull`] when the queue cannot take all of it, and then
     /// none of it is sent.
     fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull>;
+    /// The autopilot link's receive side.
+    fn autopilot(&mut self) -> &mut Self::Autopilot;
+    /// Hands whole MAVLink frames to the autopilot link's transmit queue, as
+    /// [`Board::transmit`] does for the peer's.
+    fn transmit_autopilot(&mut self, frames: &[u8]) -> Result<(), QueueFull>;
+    /// Receiver errors on the autopilot link since the last call.
+    fn take_autopilot_rx_errors(&mut self) -> u32;
     /// Writes an applied configuration to the board's configuration store, for the next
     /// boot (`crate::store`); a board without one answers [`ConfigStorage::Unavailable`].
     fn persist(&mut self, cfg: &ControllerConfig) -> ConfigStorage;
@@ -256,6 +268,9 @@ pub trait Board {
 /// decoded whole in one call. The most the decoder walks in one call: the control task's
 /// static bound counts its loop by it.
 pub const RX_CHUNK_LEN: usize = 512;
+
+/// Bytes [`App::poll`] takes from the autopilot link's receive queue at a time.
+pub const AUTOPILOT_CHUNK_LEN: usize = 256;
 
 /// Feeds `bytes` to the decoder up to the end of the first frame among them: how many it
 /// took, and what that frame asks for (a configuration write's body deserialised into
@@ -381,11 +396,25 @@ pub struct App {
     /// would be copied whole for every measurement frame).
     config_in: ControllerConfig,
     /// The counters the latest telemetry frame carried (free-running: a change is sent).
-    telemetry_sent: (Counters, LinkCounters),
+    telemetry_sent: (Counters, LinkCounters, AutopilotLinkCounters),
     /// Free-running: control periods since the latest telemetry frame.
     periods_since_telemetry: u32,
     buf: [u8; MAX_FRAME_LEN],
+    /// The MAVLink session with the autopilot (flown with the attitude-command loop).
+    autopilot: Session,
+    /// The autopilot link's clock, ms: one control period per step (module doc, "Through the
+    /// autopilot").
+    autopilot_ms: u32,
+    /// The step's frames for the autopilot, and their length (0: none to send).
+    autopilot_burst: [u8; MAX_BURST_LEN],
+    autopilot_len: usize,
+    /// Lockstep through the autopilot: a new measurement frame waiting for the autopilot's
+    /// `ATTITUDE` of its step, with its decode cost and arrival.
+    waiting: Option<(Uplink, u32, u32)>,
 }
+
+/// One control period, ms (the autopilot link's clock step).
+const PERIOD_MS: u32 = (CONTROL_PERIOD_S * 1000.0 + 0.5) as u32;
 
 /// What a received frame asks for (a configuration write's body is in `App::config_in`).
 pub(crate) enum Received {
@@ -462,6 +491,11 @@ impl App {
             control_stack_max: 0,
             pending: [None; 2],
             buf: [0; MAX_FRAME_LEN],
+            autopilot: Session::new(SessionConfig::default()),
+            autopilot_ms: 0,
+            autopilot_burst: [0; MAX_BURST_LEN],
+            autopilot_len: 0,
+            waiting: None,
         })
     }
 
@@ -521,8 +555,9 @@ impl App {
             reset_cause: self.reset_cause,
             clock: self.clock,
             probe_tip_image: self.controller.probe_tip_image(),
+            autopilot: self.autopilot.counters(),
         };
-        self.telemetry_sent = (counters, self.link);
+        self.telemetry_sent = (counters, self.link, t.autopilot);
         self.periods_since_telemetry = 0;
         match encode_telemetry(&t, &mut self.buf) {
             Ok(frame) => {
@@ -544,7 +579,12 @@ impl App {
         let p = self.periods_since_telemetry;
         p >= TELEMETRY_MAX_PERIODS
             || (p >= TELEMETRY_MIN_PERIODS
-                && self.telemetry_sent != (*self.controller.counters(), self.link))
+                && self.telemetry_sent
+                    != (
+                        *self.controller.counters(),
+                        self.link,
+                        self.autopilot.counters(),
+                    ))
     }
 
     /// Encodes `d` into the frame buffer and remembers it; `None` (counted) if it failed.
@@ -588,6 +628,12 @@ impl App {
             None => input,
         };
         let (out, step, stack) = control_step::<C>(&mut self.controller, input);
+        if self.through_autopilot() {
+            // The setpoint first: it is this step's command.
+            self.autopilot_len =
+                self.autopilot
+                    .send(self.autopilot_ms, &out.command, &mut self.autopilot_burst);
+        }
         // The gain schedule's follow-up, outside the step's timed window (a new flight
         // condition is flown from the next step; `Controller::follow_schedule`).
         self.controller.follow_schedule();
@@ -766,11 +812,12 @@ impl App {
         let new = self.link.count_sequence(check);
         match (self.schedule, new) {
             (Schedule::Lockstep, true) => {
-                self.latest = Some(up);
-                let (d, event) = self.step::<C>(&up.input, Some(up.seq), 0, decode);
-                let len = self.encode::<C>(d).map(<[u8]>::len);
-                self.trigger_at = len.map(|_| arrived);
-                (len, event)
+                if self.through_autopilot() && !self.autopilot.attitude_arrived() {
+                    // Its step waits for the autopilot's `ATTITUDE` (`App::poll`).
+                    self.waiting = Some((up, decode, arrived));
+                    return (None, None);
+                }
+                self.lockstep_step::<C>(up, decode, arrived)
             }
             (Schedule::Lockstep, false) if self.last.echo_seq == Some(up.seq) => {
                 let mut d = self.last;
@@ -798,6 +845,51 @@ impl App {
         }
     }
 
+    /// Lockstep: the step of the new measurement frame `up` (decoded at the cost `decode`, its
+    /// last byte at `arrived`) and its command frame.
+    fn lockstep_step<C: CostCounter>(
+        &mut self,
+        up: Uplink,
+        decode: u32,
+        arrived: u32,
+    ) -> (Option<usize>, Option<Event>) {
+        self.latest = Some(up);
+        let input = self.input_of(&up.input);
+        let (d, event) = self.step::<C>(&input, Some(up.seq), 0, decode);
+        self.autopilot_ms = self.autopilot_ms.wrapping_add(PERIOD_MS);
+        let len = self.encode::<C>(d).map(<[u8]>::len);
+        self.trigger_at = len.map(|_| arrived);
+        (len, event)
+    }
+
+    /// Whether the configuration flown flies through the autopilot (the attitude-command
+    /// inner loop): navigation and mode from the autopilot, setpoints to it.
+    fn through_autopilot(&self) -> bool {
+        self.controller.config().inner_loop == InnerLoop::Attitude
+    }
+
+    /// The step's input from the uplink's: through the autopilot, with its navigation and
+    /// mode ([`Session::input`]); otherwise the uplink's as it is.
+    fn input_of(&mut self, uplink: &ControllerInput) -> ControllerInput {
+        if self.through_autopilot() {
+            self.autopilot.input(self.autopilot_ms, uplink)
+        } else {
+            *uplink
+        }
+    }
+
+    /// Lockstep through the autopilot: the waiting measurement frame's step once the
+    /// autopilot's `ATTITUDE` has arrived.
+    fn release_waiting<C: CostCounter>(&mut self) -> (Option<usize>, Option<Event>) {
+        match self.waiting {
+            Some((up, decode, arrived)) if self.autopilot.attitude_arrived() => {
+                self.waiting = None;
+                self.lockstep_step::<C>(up, decode, arrived)
+            }
+            _ => (None, None),
+        }
+    }
+
     /// Free-running: `ticks.count` control periods elapsed (at least one is due). Runs one
     /// step on the latest input and returns the length of its command frame, due
     /// [`CONTROL_DEADLINE_S`] after `ticks.last_tick_at`.
@@ -810,6 +902,9 @@ impl App {
         }
         self.link.deadline_missed = self.link.deadline_missed.saturating_add(periods - 1);
         self.periods_since_telemetry = self.periods_since_telemetry.saturating_add(periods);
+        self.autopilot_ms = self
+            .autopilot_ms
+            .wrapping_add(periods.wrapping_mul(PERIOD_MS));
         let Some(latest) = self.latest else {
             // No measurement frame yet: standby trim, no step.
             let d = self.frame::<C>(None, LinkStatus::STALE, trim_output(), Cost::default());
@@ -817,7 +912,7 @@ impl App {
             self.trigger_at = len.map(|_| ticks.last_tick_at);
             return (len, None);
         };
-        let mut input = latest.input;
+        let mut input = self.input_of(&latest.input);
         let mut status = 0;
         let mut decode = 0;
         let mut event = None;
@@ -876,6 +971,13 @@ impl App {
     /// cannot take whole is dropped and counted). For a step's frame, then checks the
     /// deadline: an overrun is counted and returned, to log.
     fn send<B: Board>(&mut self, board: &mut B, len: usize) -> Option<Event> {
+        let burst = core::mem::take(&mut self.autopilot_len);
+        if burst > 0 {
+            let frames = &self.autopilot_burst[..burst.min(MAX_BURST_LEN)];
+            if board.transmit_autopilot(frames).is_err() {
+                self.autopilot.count_tx_dropped();
+            }
+        }
         let frame = &self.buf[..len.min(MAX_FRAME_LEN)];
         if board.transmit(frame).is_err() {
             self.link.tx_dropped = self.link.tx_dropped.saturating_add(1);
@@ -921,6 +1023,7 @@ impl App {
         let mut sent = 0;
         let errors = board.take_rx_errors();
         self.link.rx_errors = self.link.rx_errors.saturating_add(errors);
+        self.receive_autopilot(board);
         let mut chunk = [0u8; RX_CHUNK_LEN];
         loop {
             let link = board.link();
@@ -965,6 +1068,20 @@ impl App {
                 self.log_events(board, late);
             }
         }
+        if self.waiting.is_some() {
+            // The autopilot's bytes may have come after the measurement frame.
+            self.receive_autopilot(board);
+            let (len, event) = self.release_waiting::<B::Counter>();
+            let late = match len {
+                Some(len) => {
+                    sent += 1;
+                    self.send(board, len)
+                }
+                None => None,
+            };
+            self.log_events(board, event);
+            self.log_events(board, late);
+        }
         // Taken in both schedules (a board may tick in lockstep too, to wake the loop);
         // lockstep ignores the periods.
         let periods = board.take_periods();
@@ -989,6 +1106,31 @@ impl App {
             self.log_events(board, late);
         }
         sent
+    }
+
+    /// Every byte the autopilot link has received, into the session (stamped with the link's
+    /// clock); its receiver errors counted.
+    fn receive_autopilot<B: Board>(&mut self, board: &mut B) {
+        let errors = board.take_autopilot_rx_errors();
+        self.autopilot.count_rx_errors(errors);
+        let mut chunk = [0u8; AUTOPILOT_CHUNK_LEN];
+        loop {
+            let port = board.autopilot();
+            if !matches!(port.read_ready(), Ok(true)) {
+                break;
+            }
+            let n = match port.read(&mut chunk) {
+                Ok(n) if n > 0 => n,
+                Ok(_) => break,
+                Err(_) => {
+                    self.autopilot.count_rx_errors(1);
+                    break;
+                }
+            };
+            for &b in chunk.get(..n).unwrap_or(&[]) {
+                self.autopilot.push(b, self.autopilot_ms);
+            }
+        }
     }
 
     /// The main loop: boot frame, then poll, report the pass complete (the watchdog is fed)
@@ -1017,6 +1159,9 @@ mod tests {
 
     use super::*;
     use crate::one_step::engage_input;
+    use autopilot_link::peer::{AutopilotTelemetry, MAX_TELEMETRY_LEN, Peer, read_setpoint};
+    use autopilot_link::{LinkIds, NavConfig};
+    use ibvs_core::controller::StatusFlags;
 
     #[test]
     fn the_safe_frame_decodes_whole_after_a_frame_cut_off_mid_way() {
@@ -1069,7 +1214,37 @@ mod tests {
         stored: Vec<ControllerConfig>,
         storage: ConfigStorage,
         passes: u32,
+        /// The autopilot link: bytes for the application, bytes it sent.
+        ap: AutopilotPort,
+        ap_tx: Vec<u8>,
+        ap_rx_errors: u32,
         _counter: core::marker::PhantomData<C>,
+    }
+
+    /// The autopilot link's receive side.
+    #[derive(Default)]
+    struct AutopilotPort {
+        rx: VecDeque<u8>,
+    }
+
+    impl embedded_io::ErrorType for AutopilotPort {
+        type Error = MockError;
+    }
+
+    impl Read for AutopilotPort {
+        fn read(&mut self, buf: &mut [u8]) -> Result<usize, MockError> {
+            let n = buf.len().min(self.rx.len());
+            for (slot, b) in buf.iter_mut().zip(self.rx.drain(..n)) {
+                *slot = b;
+            }
+            Ok(n)
+        }
+    }
+
+    impl ReadReady for AutopilotPort {
+        fn read_ready(&mut self) -> Result<bool, MockError> {
+            Ok(!self.rx.is_empty())
+        }
     }
 
     impl<C> Default for Mock<C> {
@@ -1085,6 +1260,9 @@ mod tests {
                 stored: Vec::new(),
                 storage: ConfigStorage::default(),
                 passes: 0,
+                ap: AutopilotPort::default(),
+                ap_tx: Vec::new(),
+                ap_rx_errors: 0,
                 _counter: core::marker::PhantomData,
             }
         }
@@ -1159,6 +1337,17 @@ mod tests {
 
     impl<C: CostCounter> Board for Mock<C> {
         type Link = Self;
+        type Autopilot = AutopilotPort;
+        fn autopilot(&mut self) -> &mut AutopilotPort {
+            &mut self.ap
+        }
+        fn transmit_autopilot(&mut self, frames: &[u8]) -> Result<(), QueueFull> {
+            self.ap_tx.extend_from_slice(frames);
+            Ok(())
+        }
+        fn take_autopilot_rx_errors(&mut self) -> u32 {
+            core::mem::take(&mut self.ap_rx_errors)
+        }
         type Counter = C;
         fn link(&mut self) -> &mut Self {
             self
@@ -1926,6 +2115,133 @@ mod tests {
             f[3].output.measurement_error,
             Some(ibvs_core::measurement::MeasurementError::Repeated)
         );
+    }
+
+    /// The configuration flying the attitude-command loop through the autopilot.
+    fn through_autopilot() -> ControllerConfig {
+        ControllerConfig {
+            inner_loop: InnerLoop::Attitude,
+            ..ControllerConfig::default()
+        }
+    }
+
+    /// The autopilot's frames for step `k` (GUIDED when `guided`), its navigation that of
+    /// `input`'s sample.
+    fn autopilot_frames(peer: &mut Peer, i: &ControllerInput, k: u32, guided: bool) -> Vec<u8> {
+        let t = AutopilotTelemetry::of_sample(&i.nav, &NavConfig::default()).expect("in envelope");
+        let mut buf = [0u8; MAX_TELEMETRY_LEN];
+        let n = peer.telemetry(&t, guided, k * PERIOD_MS, &mut buf);
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn lockstep_through_the_autopilot_waits_for_its_attitude_and_flies_like_the_in_process_twin() {
+        let cfg = through_autopilot();
+        let mut app = App::new(Schedule::Lockstep, BootReport::power_on(), Some(cfg)).expect("ok");
+        let mut board: Mock = Mock::default();
+        app.boot(&mut board);
+        board.frames();
+        let mut twin = Controller::new(cfg).expect("config");
+        let mut twin_link = Session::new(SessionConfig::default());
+        let mut peer = Peer::new(LinkIds::default());
+        let mut engaged = false;
+        for k in 0..40u32 {
+            let request = if k == 0 {
+                ModeRequest::Engage
+            } else {
+                ModeRequest::None
+            };
+            let i = input(k + 1, request);
+            let mav = autopilot_frames(&mut peer, &i, k, true);
+            // The measurement frame first (its autopilot bytes are late): no step yet.
+            board.send(k + 1, i);
+            assert_eq!(app.poll(&mut board), 0, "step {k} waits for the attitude");
+            assert!(board.ap_tx.is_empty());
+            board.ap.rx.extend(mav.iter().copied());
+            assert_eq!(app.poll(&mut board), 1, "step {k} once the attitude is in");
+            let f = board.frames();
+            // The twin: the same session and controller in process.
+            mav.iter().for_each(|&b| twin_link.push(b, k * PERIOD_MS));
+            let ti = twin_link.input(k * PERIOD_MS, &i);
+            let out = twin.step(&ti);
+            twin.follow_schedule();
+            let mut burst = [0u8; MAX_BURST_LEN];
+            let n = twin_link.send(k * PERIOD_MS, &out.command, &mut burst);
+            assert_eq!(f[0].output, out, "step {k}");
+            assert_eq!(board.ap_tx, burst[..n], "step {k}: the setpoint's bytes");
+            let read = read_setpoint(&board.ap_tx, 0.0);
+            assert_eq!(read.time_boot_ms, Some(k * PERIOD_MS));
+            assert_eq!(read.heartbeats, u32::from(k % 50 == 0), "1 Hz");
+            board.ap_tx.clear();
+            engaged |= out.mode != Mode::Standby;
+            assert!(matches!(out.command, Command::Attitude(_)));
+        }
+        assert!(engaged, "the autopilot's navigation and mode let it engage");
+        let t = board.telemetry(&mut app);
+        assert_eq!(t.autopilot, twin_link.counters());
+        assert_eq!(
+            t.autopilot.frames_used,
+            40 * 4 + 1,
+            "four a step, a heartbeat"
+        );
+        assert_eq!(t.autopilot.nav_missing + t.autopilot.nav_stale, 0);
+    }
+
+    #[test]
+    fn free_running_through_the_autopilot_needs_its_navigation_and_mode() {
+        let cfg = through_autopilot();
+        let mut app =
+            App::new(Schedule::FreeRunning, BootReport::power_on(), Some(cfg)).expect("ok");
+        let mut board: Mock = Mock::default();
+        app.boot(&mut board);
+        board.frames();
+        let mut peer = Peer::new(LinkIds::default());
+        // Measurement frames and the autopilot's telemetry each period, in FBWA: the engage
+        // is refused (the autopilot does not follow setpoints).
+        for k in 1..=5u32 {
+            let i = input(k, ModeRequest::Engage);
+            board.send(k, i);
+            board
+                .ap
+                .rx
+                .extend(autopilot_frames(&mut peer, &i, k, false));
+            board.periods = 1;
+            app.poll(&mut board);
+            let f = board.frames();
+            assert_eq!(f[0].output.mode, Mode::Standby, "period {k}: not in GUIDED");
+            assert!(f[0].output.status.contains(StatusFlags::ENGAGE_REFUSED));
+        }
+        // GUIDED: it engages.
+        let mut mode = Mode::Standby;
+        for k in 6..=60u32 {
+            let i = input(k, ModeRequest::Engage);
+            board.send(k, i);
+            board.ap.rx.extend(autopilot_frames(&mut peer, &i, k, true));
+            board.periods = 1;
+            app.poll(&mut board);
+            mode = board.frames()[0].output.mode;
+            if mode != Mode::Standby {
+                break;
+            }
+        }
+        assert_ne!(
+            mode,
+            Mode::Standby,
+            "engaged once the heartbeat says GUIDED"
+        );
+        // The autopilot goes quiet: its navigation goes stale (counted) and the controller
+        // holds, then breaks away.
+        let mut last = mode;
+        for k in 61..=140u32 {
+            board.send(k, input(k, ModeRequest::None));
+            board.periods = 1;
+            app.poll(&mut board);
+            last = board.frames()[0].output.mode;
+        }
+        assert_eq!(last, Mode::Breakaway, "no navigation from the autopilot");
+        let t = board.telemetry(&mut app);
+        assert!(t.autopilot.nav_stale > 0, "{:?}", t.autopilot);
+        assert!(!board.ap_tx.is_empty(), "setpoints went to the autopilot");
     }
 
     #[test]

@@ -354,6 +354,12 @@ impl<const RX: usize, const TX: usize> SerialQueues<RX, TX> {
             || self.rx.len() >= RX / 2
     }
 
+    /// Main loop: whether any byte is in the receive queue (a link without frame ends to wait
+    /// for: MAVLink's frames are delimited by their length, not by a zero).
+    pub fn rx_pending(&self) -> bool {
+        !self.rx.is_empty()
+    }
+
     /// Receive errors (flagged by the USART, or a byte the full queue could not take) since
     /// the last call.
     pub fn take_rx_errors(&self) -> u32 {

@@ -59,11 +59,20 @@ mod serial;
 #[allow(dead_code)]
 mod store;
 
-/// The boards' USART1 driver and interrupt handler, as the firmware builds them.
+/// The boards' serial-port driver, and USART1's and USART2's ports and interrupt handlers, as
+/// the firmware builds them.
+#[cfg(target_os = "none")]
+#[path = "../board/usart.rs"]
+#[allow(dead_code, unsafe_code)]
+mod usart;
 #[cfg(target_os = "none")]
 #[path = "../board/usart1.rs"]
 #[allow(dead_code, unsafe_code)]
 mod usart1;
+#[cfg(target_os = "none")]
+#[path = "../board/usart2.rs"]
+#[allow(dead_code, unsafe_code)]
+mod usart2;
 
 /// The `f405` board's flash driver under the store (its logic, board-independent).
 #[cfg(target_os = "none")]
@@ -86,6 +95,7 @@ mod target {
     use super::flash_registers::Registers;
     use super::store::{ConfigStore, Persist};
     use super::usart1::{self, SerialLink};
+    use super::usart2;
     use embedded_io::{ErrorType, Read, ReadReady};
 
     /// A board whose every answer is opaque to the optimiser: any byte, any readiness, any
@@ -113,10 +123,23 @@ mod target {
 
     impl Board for AnyBoard {
         type Link = Self;
+        type Autopilot = Self;
         type Counter = NoCounter;
 
         fn link(&mut self) -> &mut Self {
             self
+        }
+
+        fn autopilot(&mut self) -> &mut Self {
+            self
+        }
+
+        fn transmit_autopilot(&mut self, frames: &[u8]) -> Result<(), QueueFull> {
+            self.transmit(frames)
+        }
+
+        fn take_autopilot_rx_errors(&mut self) -> u32 {
+            black_box(0)
         }
 
         fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
@@ -153,18 +176,33 @@ mod target {
         }
     }
 
-    /// The boards' own link and store: USART1's queues and interrupt, the flash driver.
+    /// The boards' own links and store: USART1's and USART2's queues and interrupts, the
+    /// flash driver.
     struct McuLink {
         link: SerialLink,
+        autopilot: usart2::SerialLink,
         store: Option<ConfigStore<StoreFlash<Registers>>>,
     }
 
     impl Board for McuLink {
         type Link = SerialLink;
+        type Autopilot = usart2::SerialLink;
         type Counter = NoCounter;
 
         fn link(&mut self) -> &mut SerialLink {
             &mut self.link
+        }
+
+        fn autopilot(&mut self) -> &mut usart2::SerialLink {
+            &mut self.autopilot
+        }
+
+        fn transmit_autopilot(&mut self, frames: &[u8]) -> Result<(), QueueFull> {
+            self.autopilot.transmit(frames)
+        }
+
+        fn take_autopilot_rx_errors(&mut self) -> u32 {
+            usart2::take_rx_errors()
         }
 
         fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
@@ -225,6 +263,7 @@ mod target {
             && let Some(dp) = pac::Peripherals::take()
         {
             let link = usart1::init(dp.USART1, black_box(None));
+            let autopilot = usart2::init(dp.USART2, black_box(None));
             let mut store = ConfigStore::new(
                 StoreFlash::new(Registers::new(dp.FLASH)),
                 STORE_SLOTS,
@@ -236,7 +275,11 @@ mod target {
                 .and_then(|s| s.load().newest)
                 .map(|(cfg, _)| cfg);
             if let Ok(app) = App::new(schedule, boot, stored) {
-                app.run(&mut McuLink { link, store });
+                app.run(&mut McuLink {
+                    link,
+                    autopilot,
+                    store,
+                });
             }
         }
         loop {

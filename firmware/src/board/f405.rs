@@ -24,7 +24,8 @@
 //!    the `provision-bor` build programs it, `crate::option_bytes`);
 //! 7. USART1 at 921,600 baud 8N1 on PA9 (TX) / PA10 (RX, pull-up), alternate function 7, or on
 //!    PB6 / PB7 with the `usart1-pb6-pb7` feature (the STM32F4DISCOVERY, whose PA9 is USB
-//!    VBUS with a capacitor on it); the DWT cycle counter measures costs ([`DwtCounter`]);
+//!    VBUS with a capacitor on it); USART2, the autopilot's MAVLink link, at the same speed on
+//!    PA2 (TX) / PA3 (RX, pull-up); the DWT cycle counter measures costs ([`DwtCounter`]);
 //! 8. SysTick at 50 Hz in both schedules (free-running, the flight default, steps on it;
 //!    lockstep, the `lockstep` feature for hardware in the loop, only wakes on it, so the
 //!    loop feeds the watchdog while the peer is silent);
@@ -43,7 +44,7 @@
 
 use defmt_rtt as _;
 use ibvs_core::wire::{ClockSource, ConfigStorage, CostUnit};
-use stm32f4xx_hal::pac::{self, USART1};
+use stm32f4xx_hal::pac::{self, USART1, USART2};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::{Enable, Reset};
 
@@ -54,7 +55,7 @@ use super::watchdog::{Timeout, Watchdog};
 use super::{McuBoard, Services};
 use crate::app::{App, BootReport, CostCounter, Event, Schedule};
 use crate::boot::reset_cause_from_rcc_csr;
-use crate::clock::{PCLK2_HZ, SYSCLK_HZ};
+use crate::clock::{PCLK1_HZ, PCLK2_HZ, SYSCLK_HZ};
 use crate::flash::{STORE_SLOT_LEN, STORE_SLOTS, StoreFlash};
 use crate::one_step;
 use crate::option_bytes::BorLevel;
@@ -183,9 +184,9 @@ fn fly(dp: pac::Peripherals, cp: cortex_m::Peripherals, csr: u32, debugger: bool
     let bor = BorLevel::of(optcr);
 
     // 7. USART1's pins, the peripheral, the link.
+    let gpioa = dp.GPIOA.split(&mut rcc);
     #[cfg(not(feature = "usart1-pb6-pb7"))]
     {
-        let gpioa = dp.GPIOA.split(&mut rcc);
         let _tx = gpioa.pa9.into_alternate::<7>();
         let _rx = gpioa.pa10.into_alternate::<7>().internal_pull_up(true);
     }
@@ -205,6 +206,15 @@ fn fly(dp: pac::Peripherals, cp: cortex_m::Peripherals, csr: u32, debugger: bool
     // the fallback, `crate::boot`) must stay inside it.
     const BRR: u16 = ((PCLK2_HZ + BAUD_BPS / 2) / BAUD_BPS) as u16;
     let link = super::usart1::init(dp.USART1, Some(BRR));
+    // 7b. USART2, the autopilot's MAVLink link, on PA2 (TX) / PA3 (RX, pull-up), alternate
+    // function 7, at the same speed from APB1: 42 MHz / 921,600 rounds to 46, which gives
+    // 913,043 baud, -0.93 % (inside the receiver's 3.41 % with the crystal's error).
+    let _ap_tx = gpioa.pa2.into_alternate::<7>();
+    let _ap_rx = gpioa.pa3.into_alternate::<7>().internal_pull_up(true);
+    USART2::enable(&mut rcc);
+    USART2::reset(&mut rcc);
+    const AUTOPILOT_BRR: u16 = ((PCLK1_HZ + BAUD_BPS / 2) / BAUD_BPS) as u16;
+    let autopilot = super::usart2::init(dp.USART2, Some(AUTOPILOT_BRR));
 
     let previous = super::fault::take_previous();
     if let Some(r) = &previous {
@@ -289,6 +299,7 @@ fn fly(dp: pac::Peripherals, cp: cortex_m::Peripherals, csr: u32, debugger: bool
     );
     app.run(&mut McuBoard::<DwtCounter, _>::new(
         link,
+        autopilot,
         BoardServices { store, watchdog },
     ))
 }

@@ -4,9 +4,10 @@
 //! default, or `qemu`), runs the power-on self-test ([`crate::one_step::run`]), brings up the
 //! serial link and the timers, and hands a [`crate::app::Board`] to the board-independent
 //! [`crate::app::App::run`]. The parts both boards share live here:
-//! - [`usart1`]: USART1 with an interrupt-fed receive queue and an interrupt-drained
-//!   transmit queue ([`usart1::SerialLink`]; the queues and the interrupt's logic are
-//!   `crate::serial`);
+//! - [`usart1`]: USART1, the peer's link, with an interrupt-fed receive queue and an
+//!   interrupt-drained transmit queue ([`usart1::SerialLink`]; the queues and the
+//!   interrupt's logic are `crate::serial`, the driver [`usart`]);
+//! - [`usart2`]: USART2, the autopilot's MAVLink link, the same driver;
 //! - [`systick`]: the control-period tick (SysTick at `Ts` = 20 ms of the core clock,
 //!   168 MHz on both boards), stamped with the cost counter for the control task's deadline;
 //! - [`fault`]: the panic, HardFault (on a fresh stack) and clock-failure handlers (safe
@@ -21,6 +22,7 @@
 //! |---|---|---|
 //! | clocks | none: QEMU 7.2 does not emulate the RCC | crystal (8, 12, 16 or 25 MHz, chosen at build time, measured at boot) or HSI, PLL to 168 MHz |
 //! | link | USART1, QEMU's first `-serial` | USART1 on PA9/PA10, 921,600 baud 8N1 |
+//! | autopilot (MAVLink) | USART2, QEMU's second `-serial` | USART2 on PA2/PA3, 921,600 baud 8N1 |
 //! | cost counter | TIM2, one count per instruction (`-icount shift=0`) | DWT CYCCNT, cycles |
 //! | schedule | lockstep; `free-running` on the semihosting command line | free-running; `lockstep` feature |
 //! | logs | semihosting text (QEMU's stdout/stderr) | defmt over RTT |
@@ -28,7 +30,7 @@
 //! # Scheduling: interrupts and a superloop, not RTIC
 //!
 //! One periodic control task (the main loop's pass after a period tick or a measurement
-//! frame), two interrupts (USART1: a received byte or the transmit register empty; SysTick:
+//! frame), three interrupts (USART1 and USART2: a received byte or the transmit register empty; SysTick:
 //! the period), and a configuration write that blocks for seconds in standby. What can
 //! preempt what: the two interrupts preempt the main loop; they run at the same NVIC
 //! priority (the reset default), so they never preempt each other. Each is short and
@@ -76,7 +78,9 @@ compile_error!("select a board feature: `f405` (default) or `qemu`");
 pub mod fault;
 pub mod stack;
 pub mod systick;
+pub mod usart;
 pub mod usart1;
+pub mod usart2;
 
 #[cfg(all(feature = "qemu", feature = "usart1-pb6-pb7"))]
 compile_error!("`usart1-pb6-pb7` selects the `f405` board's USART1 pins; QEMU has no pins");
@@ -191,15 +195,17 @@ impl Services for NoStore {
 /// logger and services (configuration store, watchdog).
 pub struct McuBoard<C, S> {
     link: usart1::SerialLink,
+    autopilot: usart2::SerialLink,
     services: S,
     _counter: core::marker::PhantomData<C>,
 }
 
 impl<C, S> McuBoard<C, S> {
-    /// The board around an initialised link and its services.
-    pub fn new(link: usart1::SerialLink, services: S) -> Self {
+    /// The board around its initialised links (the peer's, the autopilot's) and its services.
+    pub fn new(link: usart1::SerialLink, autopilot: usart2::SerialLink, services: S) -> Self {
         Self {
             link,
+            autopilot,
             services,
             _counter: core::marker::PhantomData,
         }
@@ -208,6 +214,7 @@ impl<C, S> McuBoard<C, S> {
 
 impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
     type Link = usart1::SerialLink;
+    type Autopilot = usart2::SerialLink;
     type Counter = C;
 
     fn link(&mut self) -> &mut usart1::SerialLink {
@@ -216,6 +223,18 @@ impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
 
     fn transmit(&mut self, frame: &[u8]) -> Result<(), QueueFull> {
         self.link.transmit(frame)
+    }
+
+    fn autopilot(&mut self) -> &mut usart2::SerialLink {
+        &mut self.autopilot
+    }
+
+    fn transmit_autopilot(&mut self, frames: &[u8]) -> Result<(), QueueFull> {
+        self.autopilot.transmit(frames)
+    }
+
+    fn take_autopilot_rx_errors(&mut self) -> u32 {
+        usart2::take_rx_errors()
     }
 
     fn take_periods(&mut self) -> Periods {
@@ -235,7 +254,7 @@ impl<C: crate::app::CostCounter, S: Services> Board for McuBoard<C, S> {
         // WFI so that an interrupt in between cannot be missed: WFI wakes on a pending
         // interrupt even while PRIMASK masks it, which then runs once unmasked.
         cortex_m::interrupt::disable();
-        if !usart1::rx_ready() && !systick::pending() {
+        if !usart1::rx_frame_ready() && !usart2::rx_pending() && !systick::pending() {
             sleep_until_interrupt();
         }
         // Note(unsafe): re-enabling interrupts is sound here: we are not inside a critical

@@ -183,6 +183,7 @@ pub fn start() -> ! {
         log_fault("before the last reset", r);
     }
     let link = super::usart1::init(dp.USART1, None);
+    let autopilot = super::usart2::init(dp.USART2, None);
     if schedule == Schedule::FreeRunning && super::systick::start(cp.SYST, CORE_HZ).is_err() {
         hprintln!("firmware: SysTick reload out of range");
         debug::exit(debug::EXIT_FAILURE);
@@ -217,11 +218,13 @@ pub fn start() -> ! {
         }
     };
     hprintln!(
-        "firmware: qemu board, {:?} schedule, link on USART1",
+        "firmware: qemu board, {:?} schedule, link on USART1, autopilot on USART2",
         schedule
     );
     // QEMU's flash is read-only: no configuration store, the default at every boot.
-    app.run(&mut McuBoard::<Tim2Counter, _>::new(link, NoStore))
+    app.run(&mut McuBoard::<Tim2Counter, _>::new(
+        link, autopilot, NoStore,
+    ))
 }
 
 /// Recurses forever, each frame 256 bytes the optimiser cannot remove (the
