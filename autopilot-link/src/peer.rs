@@ -31,7 +31,7 @@ use ibvs_core::attitude::AttitudeSetpoint;
 use ibvs_core::nav::NavSample;
 use ibvs_core::schedule::{self, ScheduleError};
 
-use crate::{ARDUPLANE_GUIDED, LinkIds, NavConfig, isa_density_ratio, wrap_pi};
+use crate::{ARDUPLANE_GUIDED, LinkIds, NavConfig, isa_density_ratio, sin_cos, wrap_pi};
 
 /// ArduPlane's `custom_mode` for FBWA (fly by wire A: the pilot's or its own attitude
 /// hold), the mode the simulated autopilot reports when it does not follow setpoints.
@@ -73,8 +73,8 @@ impl AutopilotTelemetry {
         let alpha = lon.alpha_rad + trim.alpha_rad;
         let yaw = wrap_pi(lat.psi_rad + cfg.track_rad);
         let ground_speed = lon.v_mps + cfg.tanker_speed_mps;
-        let (sy, cy) = libm::sincosf(yaw);
-        let (st, ct) = libm::sincosf(cfg.track_rad);
+        let (sy, cy) = sin_cos(yaw);
+        let (st, ct) = sin_cos(cfg.track_rad);
         let (x, y) = (lon.x_fwd_m, lat.y_right_m);
         let rho = isa_density_ratio(nav.condition.altitude_m);
         Ok(Self {

@@ -783,3 +783,22 @@ fn other_or_refused_param_values_are_counted_and_ignored() {
     assert_eq!(d.attitude_time_constants().pitch_s, None);
     assert_eq!(d.counters().other_component, 1);
 }
+
+#[test]
+fn sin_cos_is_within_2e7_of_the_exact_values_over_two_turns_each_way() {
+    let mut worst = 0.0_f64;
+    let n = 200_000;
+    for i in 0..=n {
+        let x = -4.0 * core::f32::consts::PI + 8.0 * core::f32::consts::PI * i as f32 / n as f32;
+        let (s, c) = sin_cos(x);
+        let (es, ec) = (f64::from(x).sin(), f64::from(x).cos());
+        worst = worst
+            .max((f64::from(s) - es).abs())
+            .max((f64::from(c) - ec).abs());
+    }
+    assert!(worst < 2e-7, "worst error {worst:e}");
+    // Exact where it must be: zero, and a unit circle.
+    assert_eq!(sin_cos(0.0), (0.0, 1.0));
+    let (s, c) = sin_cos(0.7);
+    assert!((s * s + c * c - 1.0).abs() < 3e-7);
+}

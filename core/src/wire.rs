@@ -80,7 +80,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 15;
+pub const PROTOCOL_VERSION: u8 = 16;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 704;
@@ -220,9 +220,12 @@ pub struct Cost {
     pub step: u32,
     /// Decoding the measurement frame this step used: every byte through the streaming
     /// decoder and the deserialisation, summed over the bytes (each byte's figure includes
-    /// the counter read, one instruction). 0 when the step reused an earlier frame.
+    /// the counter read, one instruction). 0 when the step reused an earlier frame. Through
+    /// the autopilot (the attitude-command loop), also the autopilot's MAVLink bytes decoded
+    /// since the last step and the navigation sample built from them.
     pub decode: u32,
-    /// Encoding the previous command frame (this one's is not known until it is encoded).
+    /// Encoding the previous command frame (this one's is not known until it is encoded);
+    /// through the autopilot, also that step's MAVLink frames (heartbeat, setpoint).
     pub encode_prev: u32,
 }
 
@@ -851,8 +854,8 @@ fn encode_frame<T: Serialize>(
 
 /// Encodes `msg` as a frame of one COBS block (a payload of at most
 /// [`IN_PLACE_PAYLOAD_LEN`] bytes, [`WireError::TooLarge`] past it), in place: the encoder of
-/// the frames of every step (measurement, command, telemetry), with no copy and no general
-/// path in its code.
+/// the frames of every step (measurement, command), with no copy and no general path in its
+/// code.
 fn encode_step_frame<'a, T: Serialize>(
     kind: FrameKind,
     msg: &T,
@@ -917,9 +920,11 @@ pub fn encode_downlink<'a>(msg: &Downlink, out: &'a mut [u8]) -> Result<&'a [u8]
 }
 
 /// Encodes a telemetry frame into `out` (at least [`MAX_FRAME_LEN`] bytes suffice); returns
-/// the frame, ending in its `0x00`.
+/// the frame, ending in its `0x00`. Its largest (every counter at its largest, the MAVLink
+/// link's included) is more than one COBS block, so it takes the general encoder: it is
+/// sent after the step's command frame, outside the control task's deadline.
 pub fn encode_telemetry<'a>(t: &Telemetry, out: &'a mut [u8]) -> Result<&'a [u8], WireError> {
-    encode_step_frame(FrameKind::Telemetry, t, out)
+    encode_message(FrameKind::Telemetry, t, out)
 }
 
 /// Encodes a telemetry request into `out`; returns the frame, ending in its `0x00`.
@@ -1404,8 +1409,35 @@ mod tests {
                 reset_cause: ResetCause::LowPower,
                 clock: ClockSource::InternalFallback,
                 probe_tip_image: [f32::MAX; 2],
+                autopilot: largest_autopilot_counters(),
             },
         )
+    }
+
+    /// Every MAVLink link counter at its largest (each field, so none is forgotten).
+    fn largest_autopilot_counters() -> AutopilotLinkCounters {
+        let m = u32::MAX;
+        AutopilotLinkCounters {
+            frames_used: m,
+            noise_bytes: m,
+            bad_flags: m,
+            unknown_id: m,
+            bad_crc: m,
+            signed_unverified: m,
+            other_system: m,
+            other_component: m,
+            unused: m,
+            parse_errors: m,
+            param_refused: m,
+            dropped: m,
+            nav_missing: m,
+            nav_stale: m,
+            nav_schedule: m,
+            nav_non_finite: m,
+            setpoints_refused: m,
+            tx_dropped: m,
+            rx_errors: m,
+        }
     }
 
     /// Every field at its longest postcard encoding.
@@ -1557,7 +1589,7 @@ mod tests {
             .len();
         assert_eq!(
             (up_small, up_big, small, big, telemetry_small, telemetry_len),
-            (83, 91, 102, 138, 65, 253),
+            (83, 91, 102, 138, 84, 349),
             "update the module doc"
         );
     }

@@ -411,6 +411,11 @@ pub struct App {
     /// Lockstep through the autopilot: a new measurement frame waiting for the autopilot's
     /// `ATTITUDE` of its step, with its decode cost and arrival.
     waiting: Option<(Uplink, u32, u32)>,
+    /// Cost of the autopilot's bytes decoded since the last step and of the step's
+    /// navigation sample (in the step's `Cost::decode`), and of the step's MAVLink frames'
+    /// encoding (in the next frame's `Cost::encode_prev`).
+    autopilot_decode: u32,
+    autopilot_encode: u32,
 }
 
 /// One control period, ms (the autopilot link's clock step).
@@ -496,6 +501,8 @@ impl App {
             autopilot_burst: [0; MAX_BURST_LEN],
             autopilot_len: 0,
             waiting: None,
+            autopilot_decode: 0,
+            autopilot_encode: 0,
         })
     }
 
@@ -591,7 +598,10 @@ impl App {
     fn encode<C: CostCounter>(&mut self, d: Downlink) -> Option<&[u8]> {
         let t0 = C::now();
         let n = encode_downlink(&d, &mut self.buf).map(<[u8]>::len);
-        self.encode_prev = C::now().wrapping_sub(t0);
+        // Through the autopilot, the step's MAVLink frames' encoding too.
+        self.encode_prev = C::now()
+            .wrapping_sub(t0)
+            .saturating_add(core::mem::take(&mut self.autopilot_encode));
         match n {
             Ok(n) if n <= self.buf.len() => {
                 self.last = d;
@@ -630,9 +640,11 @@ impl App {
         let (out, step, stack) = control_step::<C>(&mut self.controller, input);
         if self.through_autopilot() {
             // The setpoint first: it is this step's command.
+            let t0 = C::now();
             self.autopilot_len =
                 self.autopilot
                     .send(self.autopilot_ms, &out.command, &mut self.autopilot_burst);
+            self.autopilot_encode = C::now().wrapping_sub(t0);
         }
         // The gain schedule's follow-up, outside the step's timed window (a new flight
         // condition is flown from the next step; `Controller::follow_schedule`).
@@ -854,7 +866,8 @@ impl App {
         arrived: u32,
     ) -> (Option<usize>, Option<Event>) {
         self.latest = Some(up);
-        let input = self.input_of(&up.input);
+        let input = self.input_of::<C>(&up.input);
+        let decode = decode.saturating_add(core::mem::take(&mut self.autopilot_decode));
         let (d, event) = self.step::<C>(&input, Some(up.seq), 0, decode);
         self.autopilot_ms = self.autopilot_ms.wrapping_add(PERIOD_MS);
         let len = self.encode::<C>(d).map(<[u8]>::len);
@@ -869,22 +882,28 @@ impl App {
     }
 
     /// The step's input from the uplink's: through the autopilot, with its navigation and
-    /// mode ([`Session::input`]); otherwise the uplink's as it is.
-    fn input_of(&mut self, uplink: &ControllerInput) -> ControllerInput {
-        if self.through_autopilot() {
-            self.autopilot.input(self.autopilot_ms, uplink)
-        } else {
-            *uplink
+    /// mode ([`Session::input`], its cost counted with the autopilot's decoding); otherwise
+    /// the uplink's as it is.
+    fn input_of<C: CostCounter>(&mut self, uplink: &ControllerInput) -> ControllerInput {
+        if !self.through_autopilot() {
+            return *uplink;
         }
+        let t0 = C::now();
+        let input = self.autopilot.input(self.autopilot_ms, uplink);
+        let spent = C::now().wrapping_sub(t0);
+        self.autopilot_decode = self.autopilot_decode.saturating_add(spent);
+        input
     }
 
     /// Lockstep through the autopilot: the waiting measurement frame's step once the
-    /// autopilot's `ATTITUDE` has arrived.
-    fn release_waiting<C: CostCounter>(&mut self) -> (Option<usize>, Option<Event>) {
+    /// autopilot's `ATTITUDE` has arrived. Its deadline's trigger is then the later of the
+    /// frame's arrival and `pass_at`, the start of the pass that read the autopilot's bytes
+    /// (their decode inside the window).
+    fn release_waiting<C: CostCounter>(&mut self, pass_at: u32) -> (Option<usize>, Option<Event>) {
         match self.waiting {
-            Some((up, decode, arrived)) if self.autopilot.attitude_arrived() => {
+            Some((up, decode, _)) if self.autopilot.attitude_arrived() => {
                 self.waiting = None;
-                self.lockstep_step::<C>(up, decode, arrived)
+                self.lockstep_step::<C>(up, decode, pass_at)
             }
             _ => (None, None),
         }
@@ -912,14 +931,14 @@ impl App {
             self.trigger_at = len.map(|_| ticks.last_tick_at);
             return (len, None);
         };
-        let mut input = self.input_of(&latest.input);
+        let mut input = self.input_of::<C>(&latest.input);
         let mut status = 0;
-        let mut decode = 0;
+        let mut decode = core::mem::take(&mut self.autopilot_decode);
         let mut event = None;
         if self.fresh {
             self.fresh = false;
             self.periods_since_fresh = 0;
-            decode = self.decode_latest;
+            decode = decode.saturating_add(self.decode_latest);
         } else {
             self.periods_since_fresh = self.periods_since_fresh.saturating_add(periods);
             input.request = ModeRequest::None;
@@ -1070,8 +1089,9 @@ impl App {
         }
         if self.waiting.is_some() {
             // The autopilot's bytes may have come after the measurement frame.
+            let pass_at = B::Counter::now();
             self.receive_autopilot(board);
-            let (len, event) = self.release_waiting::<B::Counter>();
+            let (len, event) = self.release_waiting::<B::Counter>(pass_at);
             let late = match len {
                 Some(len) => {
                     sent += 1;
@@ -1127,9 +1147,17 @@ impl App {
                     break;
                 }
             };
-            for &b in chunk.get(..n).unwrap_or(&[]) {
-                self.autopilot.push(b, self.autopilot_ms);
-            }
+            // Timed as the peer's frames are (uninterrupted where the board's counter needs
+            // it): the cost goes into the next step's decode.
+            let (session, now) = (&mut self.autopilot, self.autopilot_ms);
+            let spent = B::Counter::uninterrupted(|| {
+                let t0 = B::Counter::now();
+                for &b in chunk.get(..n).unwrap_or(&[]) {
+                    session.push(b, now);
+                }
+                B::Counter::now().wrapping_sub(t0)
+            });
+            self.autopilot_decode = self.autopilot_decode.saturating_add(spent);
         }
     }
 

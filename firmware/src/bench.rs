@@ -35,6 +35,11 @@ use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode, ModeRequest,
 };
 
+use autopilot_link::peer::{AutopilotTelemetry, MAX_TELEMETRY_LEN, Peer};
+use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
+use autopilot_link::{LinkIds, NavConfig, quaternion_zyx};
+use ibvs_core::attitude::{AttitudeSetpoint, Command};
+
 use crate::app::CostCounter;
 use crate::app::{RX_CHUNK_LEN, Received, receive};
 use crate::one_step::engage_input;
@@ -94,6 +99,20 @@ pub struct Costs {
     /// Applying it: [`Controller::reconfigure`] (validation, the controller rebuilt) and the
     /// configuration's id (`config_id`), as the application does in standby.
     pub apply_config: u32,
+    /// Through the autopilot (MAVLink): one step's frames from the simulated ArduPlane (a
+    /// heartbeat, `LOCAL_POSITION_NED`, `VFR_HUD`, `AOA_SSA`, `ATTITUDE`), bytes.
+    pub mavlink_rx_len: usize,
+    /// Decoding them: every byte through the session's decoder (framing, CRC with the CRC
+    /// extra, payload).
+    pub mavlink_decode: u32,
+    /// The step's input from them (`Session::input`: the navigation sample, the mode).
+    pub mavlink_nav: u32,
+    /// Our heartbeat and the setpoint, bytes.
+    pub mavlink_tx_len: usize,
+    /// Encoding them (`Session::send` with the heartbeat due).
+    pub mavlink_encode: u32,
+    /// The setpoint's quaternion alone (part of the encoding).
+    pub mavlink_quaternion: u32,
 }
 
 impl Costs {
@@ -130,7 +149,9 @@ impl core::fmt::Display for Json<'_> {
              \"crc_measurement\": {}, \"command_frame_bytes\": {}, \"encode_command\": {}, \
              \"telemetry_frame_bytes\": {}, \"encode_telemetry\": {}, \
              \"follow_schedule\": {}, \"config_frame_bytes\": {}, \"decode_config\": {}, \
-             \"apply_config\": {}}}",
+             \"apply_config\": {}, \"mavlink_rx_bytes\": {}, \"mavlink_decode\": {}, \
+             \"mavlink_nav\": {}, \"mavlink_tx_bytes\": {}, \"mavlink_encode\": {}, \
+             \"mavlink_quaternion\": {}}}",
             c.steps,
             c.script_ok,
             c.measurement_frame_len,
@@ -144,7 +165,13 @@ impl core::fmt::Display for Json<'_> {
             c.follow_schedule,
             c.config_frame_len,
             c.decode_config,
-            c.apply_config
+            c.apply_config,
+            c.mavlink_rx_len,
+            c.mavlink_decode,
+            c.mavlink_nav,
+            c.mavlink_tx_len,
+            c.mavlink_encode,
+            c.mavlink_quaternion
         )
     }
 }
@@ -429,7 +456,59 @@ pub fn measure<C: CostCounter>() -> Costs {
         encode_telemetry(black_box(&telemetry), &mut down_buf).map_or(0, <[u8]>::len);
     costs.encode_telemetry = C::now().wrapping_sub(t0);
     costs.telemetry_frame_len = telemetry_len;
+    mavlink::<C>(&mut costs, &up.input, &output);
     costs
+}
+
+/// The MAVLink link's costs for one step through the autopilot (heartbeats due both ways).
+fn mavlink<C: CostCounter>(costs: &mut Costs, uplink: &ControllerInput, out: &ControllerOutput) {
+    let ids = LinkIds::default();
+    let mut peer = Peer::new(ids);
+    // A track other than north: the sample's rotation into the track's axes computed.
+    let nav = NavConfig {
+        track_rad: 1.0,
+        ..NavConfig::default()
+    };
+    let mut session = Session::new(SessionConfig {
+        nav,
+        ..SessionConfig::default()
+    });
+    let Ok(t) = AutopilotTelemetry::of_sample(&perturbed_nav(), &nav) else {
+        costs.script_ok = false;
+        return;
+    };
+    let mut rx = [0u8; MAX_TELEMETRY_LEN];
+    let n = peer.telemetry(&t, true, 0, &mut rx);
+    costs.mavlink_rx_len = n;
+    let t0 = C::now();
+    for &b in black_box(&rx[..n]) {
+        session.push(b, 0);
+    }
+    costs.mavlink_decode = C::now().wrapping_sub(t0);
+    let t0 = C::now();
+    let input = session.input(0, black_box(uplink));
+    costs.mavlink_nav = C::now().wrapping_sub(t0);
+    if !(input.autopilot_ready && input.nav.as_array().iter().all(|v| v.is_finite())) {
+        costs.script_ok = false;
+    }
+    let command = Command::Attitude(AttitudeSetpoint {
+        roll_rad: 0.1,
+        pitch_rad: 0.05,
+        yaw_rad: -0.02,
+        throttle: out.command.throttle().clamp(0.0, 1.0),
+    });
+    let mut tx = [0u8; MAX_BURST_LEN];
+    let t0 = C::now();
+    let len = session.send(0, black_box(&command), &mut tx);
+    costs.mavlink_encode = C::now().wrapping_sub(t0);
+    costs.mavlink_tx_len = len;
+    let t0 = C::now();
+    black_box(quaternion_zyx(
+        black_box(0.1),
+        black_box(0.05),
+        black_box(-0.02),
+    ));
+    costs.mavlink_quaternion = C::now().wrapping_sub(t0);
 }
 
 #[cfg(test)]
@@ -462,6 +541,12 @@ mod tests {
             config_frame_len: 467,
             decode_config: 17,
             apply_config: 18,
+            mavlink_rx_len: 161,
+            mavlink_decode: 19,
+            mavlink_nav: 20,
+            mavlink_tx_len: 72,
+            mavlink_encode: 21,
+            mavlink_quaternion: 22,
         };
         let parse = |c: &Costs, unit| -> Value {
             let text = Json(c, unit).to_string();
@@ -495,6 +580,12 @@ mod tests {
                 "config_frame_bytes": 467,
                 "decode_config": 17,
                 "apply_config": 18,
+                "mavlink_rx_bytes": 161,
+                "mavlink_decode": 19,
+                "mavlink_nav": 20,
+                "mavlink_tx_bytes": 72,
+                "mavlink_encode": 21,
+                "mavlink_quaternion": 22,
             })
         );
         // Every path once, by its name.
@@ -524,7 +615,14 @@ mod tests {
         assert!(c.steps > 300, "{c:?}");
         assert!((83..=99).contains(&c.measurement_frame_len), "{c:?}");
         assert!((102..=138).contains(&c.command_frame_len), "{c:?}");
-        assert!((65..=253).contains(&c.telemetry_frame_len), "{c:?}");
+        assert!((84..=349).contains(&c.telemetry_frame_len), "{c:?}");
+        // One step's autopilot frames with a heartbeat, our heartbeat and setpoint.
+        // (MAVLink 2 drops a payload's trailing zeros: at most the longest.)
+        assert!(
+            (140..=MAX_TELEMETRY_LEN).contains(&c.mavlink_rx_len),
+            "{c:?}"
+        );
+        assert_eq!(c.mavlink_tx_len, MAX_BURST_LEN, "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
         // The default configuration's write: 524 bytes of postcard (`core/src/wire.rs`) in a
         // 532-byte frame.

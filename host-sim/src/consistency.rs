@@ -117,6 +117,10 @@ impl FlightComputer for Recorder {
         out
     }
 
+    fn through_autopilot(&self) -> bool {
+        self.ctl.through_autopilot()
+    }
+
     fn probe_tip_image(&self) -> Option<[f32; 2]> {
         FlightComputer::probe_tip_image(&self.ctl)
     }

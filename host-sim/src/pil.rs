@@ -68,7 +68,9 @@ use ibvs_core::wire::{
 };
 use serde::Serialize;
 
-use crate::sim::FlightComputer;
+use crate::sim::{AutopilotStep, FlightComputer};
+use autopilot_link::peer::read_setpoint;
+use ibvs_core::attitude::{Command as FlightCommand, InnerLoop};
 
 /// Environment variable naming the firmware ELF to fly ([`firmware_elf`]).
 pub const FIRMWARE_ELF_ENV: &str = "IBVS_FIRMWARE_ELF";
@@ -110,6 +112,13 @@ pub enum PilError {
     /// QEMU did not connect to the link's socket in time.
     #[error("QEMU did not connect to the serial socket within {0:?}")]
     ConnectTimeout(Duration),
+    /// A step through the autopilot on a link without the autopilot's serial port (hardware
+    /// in the loop has one serial device: the peer's).
+    #[error("this link has no autopilot port (MAVLink): only QEMU's second serial port is wired")]
+    NoAutopilotPort,
+    /// The firmware sent no `SET_ATTITUDE_TARGET` for an attitude command in time.
+    #[error("no SET_ATTITUDE_TARGET from the firmware within {0:?}")]
+    NoSetpoint(Duration),
     /// The firmware sent no telemetry frame in time after a request.
     #[error("no telemetry frame from the firmware within {0:?}")]
     NoTelemetry(Duration),
@@ -477,6 +486,13 @@ pub struct PilLink {
     /// Bytes of the command frame being received, and of the last one accepted.
     rx_frame: Vec<u8>,
     last_rx_frame: Vec<u8>,
+    /// The firmware's autopilot port (USART2; QEMU's second serial), when wired.
+    autopilot: Option<Box<dyn Transport>>,
+    /// Bytes read from it not yet taken as whole frames; every byte written to it and read
+    /// from it.
+    autopilot_rx: Vec<u8>,
+    autopilot_sent: Vec<u8>,
+    autopilot_received: Vec<u8>,
 }
 
 /// Words the `qemu` board's firmware carries in its flash (its boot log's), and the `f405`
@@ -558,10 +574,16 @@ fn remove_run_dir(dir: &Path) {
     }
 }
 
-/// Starts QEMU's netduinoplus2 with `elf`, its USART1 on the chardev `serial` (`unix:PATH`
-/// or `pty`), the semihosting command line of `opts` (its schedule and extra words), and
-/// QEMU's stdout and stderr (the firmware's semihosting log) into the file `log`.
-fn start_qemu(elf: &Path, opts: &PilOptions, serial: &str, log: &Path) -> Result<Child, PilError> {
+/// Starts QEMU's netduinoplus2 with `elf`, its USART1, USART2, ... on the chardevs `serials`
+/// in order (`unix:PATH` or `pty`), the semihosting command line of `opts` (its schedule and
+/// extra words), and QEMU's stdout and stderr (the firmware's semihosting log) into the file
+/// `log`.
+fn start_qemu(
+    elf: &Path,
+    opts: &PilOptions,
+    serials: &[&str],
+    log: &Path,
+) -> Result<Child, PilError> {
     let log_file = File::create(log)?;
     let mut semihosting = String::from("enable=on,target=native,arg=firmware");
     if opts.schedule == FirmwareSchedule::FreeRunning {
@@ -572,11 +594,14 @@ fn start_qemu(elf: &Path, opts: &PilOptions, serial: &str, log: &Path) -> Result
         semihosting.push_str(word);
     }
     let program = opts.qemu.display().to_string();
-    Command::new(&opts.qemu)
-        .args(["-machine", "netduinoplus2", "-cpu", "cortex-m4"])
+    let mut qemu = Command::new(&opts.qemu);
+    qemu.args(["-machine", "netduinoplus2", "-cpu", "cortex-m4"])
         .args(["-icount", "shift=0", "-display", "none", "-monitor", "none"])
-        .args(["-semihosting-config", &semihosting])
-        .args(["-serial", serial, "-kernel"])
+        .args(["-semihosting-config", &semihosting]);
+    for serial in serials {
+        qemu.args(["-serial", serial]);
+    }
+    qemu.arg("-kernel")
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(log_file.try_clone()?)
@@ -603,7 +628,12 @@ impl PilLink {
         let listener = UnixListener::bind(&socket)?;
         listener.set_nonblocking(true)?;
         let serial = format!("unix:{}", socket.display());
-        let child = start_qemu(elf, opts, &serial, &log)?;
+        // USART2: the autopilot's MAVLink port.
+        let ap_socket = dir.join("autopilot.sock");
+        let ap_listener = UnixListener::bind(&ap_socket)?;
+        ap_listener.set_nonblocking(true)?;
+        let ap_serial = format!("unix:{}", ap_socket.display());
+        let child = start_qemu(elf, opts, &[&serial, &ap_serial], &log)?;
         let mut link = Self::around(
             Some(child),
             // Replaced below once QEMU connects; a placeholder pair keeps `Drop` simple.
@@ -613,21 +643,13 @@ impl PilLink {
             opts,
         );
         let deadline = Instant::now() + opts.boot_timeout;
-        let stream = loop {
-            match listener.accept() {
-                Ok((s, _)) => break s,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    link.check_alive()?;
-                    if Instant::now() > deadline {
-                        return Err(PilError::ConnectTimeout(opts.boot_timeout));
-                    }
-                    thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => return Err(e.into()),
-            }
-        };
-        stream.set_nonblocking(false)?;
+        let stream = link.accept(&listener, deadline, opts.boot_timeout)?;
         link.stream = Box::new(stream);
+        link.autopilot = Some(Box::new(link.accept(
+            &ap_listener,
+            deadline,
+            opts.boot_timeout,
+        )?));
         let remaining = deadline.saturating_duration_since(Instant::now());
         match link.recv(remaining)? {
             Some(d) if d.link_status.contains(LinkStatus::BOOT) => link.boot = d,
@@ -710,7 +732,103 @@ impl PilLink {
             telemetry: None,
             rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
             last_rx_frame: Vec::with_capacity(MAX_FRAME_LEN),
+            autopilot: None,
+            autopilot_rx: Vec::new(),
+            autopilot_sent: Vec::new(),
+            autopilot_received: Vec::new(),
         }
+    }
+
+    /// QEMU's connection to `listener`, within `deadline` (blocking from then on).
+    fn accept(
+        &mut self,
+        listener: &UnixListener,
+        deadline: Instant,
+        timeout: Duration,
+    ) -> Result<UnixStream, PilError> {
+        loop {
+            match listener.accept() {
+                Ok((s, _)) => {
+                    s.set_nonblocking(false)?;
+                    return Ok(s);
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    self.check_alive()?;
+                    if Instant::now() > deadline {
+                        return Err(PilError::ConnectTimeout(timeout));
+                    }
+                    thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    /// Writes the autopilot's bytes to the firmware's autopilot port (kept in
+    /// [`PilLink::autopilot_sent`]).
+    pub fn send_autopilot(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        self.check_alive()?;
+        let port = self.autopilot.as_mut().ok_or(PilError::NoAutopilotPort)?;
+        port.write_all(bytes)?;
+        port.flush()?;
+        self.autopilot_sent.extend_from_slice(bytes);
+        Ok(())
+    }
+
+    /// The firmware's MAVLink frames up to and including its next `SET_ATTITUDE_TARGET`,
+    /// waiting at most `timeout` (kept in [`PilLink::autopilot_received`]).
+    pub fn recv_setpoint(&mut self, timeout: Duration) -> Result<Vec<u8>, PilError> {
+        let deadline = Instant::now() + timeout;
+        let mut out = Vec::new();
+        loop {
+            // Whole frames already in: a MAVLink 2 frame is 12 bytes and its payload.
+            while let Some(len) = self
+                .autopilot_rx
+                .get(1)
+                .map(|&n| 12 + usize::from(n))
+                .filter(|&len| self.autopilot_rx.len() >= len)
+            {
+                let frame: Vec<u8> = self.autopilot_rx.drain(..len).collect();
+                let setpoint = read_setpoint(&frame, 0.0).setpoint.is_some();
+                out.extend_from_slice(&frame);
+                if setpoint {
+                    self.autopilot_received.extend_from_slice(&out);
+                    return Ok(out);
+                }
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                self.autopilot_received.extend_from_slice(&out);
+                return Err(PilError::NoSetpoint(timeout));
+            }
+            let port = self.autopilot.as_mut().ok_or(PilError::NoAutopilotPort)?;
+            port.set_read_timeout(left.max(Duration::from_millis(1)))?;
+            let mut buf = [0u8; 256];
+            match port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(self
+                        .exit_status()
+                        .map_or(PilError::NoSetpoint(timeout), |st| self.exited_error(st)));
+                }
+                Ok(n) => self.autopilot_rx.extend_from_slice(&buf[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    /// Every byte written to the firmware's autopilot port so far.
+    pub fn autopilot_sent(&self) -> &[u8] {
+        &self.autopilot_sent
+    }
+
+    /// Every byte the firmware sent on its autopilot port and the link read so far.
+    pub fn autopilot_received(&self) -> &[u8] {
+        &self.autopilot_received
     }
 
     /// The error for a panic frame, once QEMU has finished (so the log is complete).
@@ -1070,7 +1188,7 @@ impl QemuPty {
     /// /dev/pts/N").
     pub fn spawn(elf: &Path, opts: &PilOptions) -> Result<Self, PilError> {
         let (dir, log) = qemu_run_dir(elf)?;
-        let child = start_qemu(elf, opts, "pty", &log)?;
+        let child = start_qemu(elf, opts, &["pty"], &log)?;
         let mut q = Self {
             child,
             pty: PathBuf::new(),
@@ -1129,6 +1247,9 @@ pub struct PilFlightComputer {
     last_error: Option<PilError>,
     history: Vec<Downlink>,
     steps: u64,
+    /// The configuration written ([`PilFlightComputer::configure`]); the firmware's
+    /// default before.
+    config: ControllerConfig,
 }
 
 impl PilFlightComputer {
@@ -1162,6 +1283,7 @@ impl PilFlightComputer {
             last_error: None,
             history: Vec::new(),
             steps: 0,
+            config: ControllerConfig::default(),
         }
     }
 
@@ -1181,6 +1303,7 @@ impl PilFlightComputer {
                 sent,
             });
         }
+        self.config = *cfg;
         Ok(())
     }
 
@@ -1221,6 +1344,25 @@ impl PilFlightComputer {
         })
     }
 
+    /// One step through the autopilot: the autopilot's bytes to the firmware's autopilot
+    /// port first, then the measurement frame; its command frame, and for an attitude
+    /// command the firmware's MAVLink frames up to its `SET_ATTITUDE_TARGET` (appended to
+    /// `to_autopilot`).
+    pub fn try_step_through_autopilot(
+        &mut self,
+        input: &ControllerInput,
+        from_autopilot: &[u8],
+        to_autopilot: &mut Vec<u8>,
+    ) -> Result<Downlink, PilError> {
+        self.link.send_autopilot(from_autopilot)?;
+        let d = self.try_step(input)?;
+        if matches!(d.output.command, FlightCommand::Attitude(_)) {
+            let frames = self.link.recv_setpoint(self.opts.step_timeout)?;
+            to_autopilot.extend_from_slice(&frames);
+        }
+        Ok(d)
+    }
+
     /// The error of the last failed step, if any.
     pub fn last_error(&self) -> Option<&PilError> {
         self.last_error.as_ref()
@@ -1240,6 +1382,19 @@ impl PilFlightComputer {
     /// The link, to send frames of its own (a configuration read, raw bytes).
     pub fn link_mut(&mut self) -> &mut PilLink {
         &mut self.link
+    }
+
+    /// A step's output: the command frame's, or on a failure the last output received
+    /// (held), the failure counted and kept.
+    fn held_on_failure(&mut self, result: Result<Downlink, PilError>) -> ControllerOutput {
+        match result {
+            Ok(d) => d.output,
+            Err(e) => {
+                self.link.host.failed_steps += 1;
+                self.last_error = Some(e);
+                self.last_output
+            }
+        }
     }
 
     /// What the run measured so far.
@@ -1298,14 +1453,21 @@ impl FlightComputer for PilFlightComputer {
     /// the failure counted and kept (see the module doc).
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
         self.steps += 1;
-        match self.try_step(input) {
-            Ok(d) => d.output,
-            Err(e) => {
-                self.link.host.failed_steps += 1;
-                self.last_error = Some(e);
-                self.last_output
-            }
-        }
+        let result = self.try_step(input);
+        self.held_on_failure(result)
+    }
+
+    /// From the configuration written.
+    fn through_autopilot(&self) -> bool {
+        self.config.inner_loop == InnerLoop::Attitude
+    }
+
+    /// The firmware runs its own side of the link: the simulator's session is not used.
+    fn step_through_autopilot(&mut self, link: AutopilotStep<'_>) -> ControllerOutput {
+        self.steps += 1;
+        let result =
+            self.try_step_through_autopilot(link.input, link.from_autopilot, link.to_autopilot);
+        self.held_on_failure(result)
     }
 
     /// From the latest telemetry frame (every 10 to 50 control periods; `None` before the

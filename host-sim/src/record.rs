@@ -25,7 +25,9 @@ use ibvs_core::wire::{Downlink, Uplink, decode_uplink};
 use nalgebra::Vector3;
 
 use crate::pil::{HostLinkCounters, PilFlightComputer};
-use crate::sim::{self, CameraChoice, FlightComputer, Run, Sample, Scenario, SimError};
+use crate::sim::{
+    self, AutopilotStep, CameraChoice, FlightComputer, Run, Sample, Scenario, SimError,
+};
 use crate::world::faults::SimFault;
 use crate::world::led_camera::{DEFAULT_RING_RADIUS_M, LedImage, TrueFeature};
 use crate::world::{Camera, Drogue, World};
@@ -241,6 +243,22 @@ struct Tap<'a> {
     link: Vec<LinkRecord>,
 }
 
+/// The link's record of the step the firmware just answered (`answered`: its history's
+/// length before the step).
+fn link_record(fc: &PilFlightComputer, answered: usize) -> LinkRecord {
+    let link = fc.link();
+    let frame = link.last_measurement_frame().to_vec();
+    LinkRecord {
+        uplink: decode_uplink(&frame).ok(),
+        uplink_frame: frame,
+        downlink: fc
+            .history()
+            .get(answered)
+            .map(|d| (link.last_command_frame().to_vec(), *d)),
+        host: *link.host_counters(),
+    }
+}
+
 impl FlightComputer for Tap<'_> {
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput {
         self.inputs.push(*input);
@@ -249,20 +267,30 @@ impl FlightComputer for Tap<'_> {
             Inner::Pil(fc) => {
                 let answered = fc.history().len();
                 let output = FlightComputer::step(&mut **fc, input);
-                let link = fc.link();
-                let frame = link.last_measurement_frame().to_vec();
-                self.link.push(LinkRecord {
-                    uplink: decode_uplink(&frame).ok(),
-                    uplink_frame: frame,
-                    downlink: fc
-                        .history()
-                        .get(answered)
-                        .map(|d| (link.last_command_frame().to_vec(), *d)),
-                    host: *link.host_counters(),
-                });
+                self.link.push(link_record(fc, answered));
                 output
             }
         }
+    }
+
+    fn through_autopilot(&self) -> bool {
+        match &self.inner {
+            Inner::Any(fc) => fc.through_autopilot(),
+            Inner::Pil(fc) => fc.through_autopilot(),
+        }
+    }
+
+    /// In process: the session around this tap's step (which records the input the session
+    /// built). The firmware: its own session; the input recorded is the uplink's.
+    fn step_through_autopilot(&mut self, link: AutopilotStep<'_>) -> ControllerOutput {
+        let Inner::Pil(fc) = &mut self.inner else {
+            return sim::step_through_session(self, link);
+        };
+        self.inputs.push(*link.input);
+        let answered = fc.history().len();
+        let output = fc.step_through_autopilot(link);
+        self.link.push(link_record(fc, answered));
+        output
     }
 
     fn probe_tip_image(&self) -> Option<[f32; 2]> {

@@ -7,7 +7,13 @@
 //! after every substep.
 //!
 //! The flight computer is a trait, so the same run drives the core in-process or the firmware
-//! inside an emulated MCU. [`run_with_faults`] injects scheduled faults between the world and
+//! inside an emulated MCU. A flight computer flying the attitude-command inner loop flies
+//! through the aircraft's autopilot over MAVLink, in process as in the firmware: each step the
+//! simulated autopilot sends its telemetry (the navigation sample as ArduPlane would report
+//! it, and its mode; `autopilot_link::peer`), the flight computer's side of the link
+//! (`autopilot_link::session`) builds the step's navigation and mode from it, and the
+//! setpoint the autopilot flies is the one it decodes from the flight computer's
+//! `SET_ATTITUDE_TARGET`. [`run_with_faults`] injects scheduled faults between the world and
 //! the flight computer (camera, navigation, actuators; [`crate::world::faults`]).
 //!
 //! Invariant: a run is a pure function of its [`Scenario`], its faults and the flight computer's
@@ -40,7 +46,9 @@ use crate::world::turbulence::{
 };
 use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
-use ibvs_core::attitude::Command;
+use autopilot_link::peer::{AutopilotTelemetry, MAX_TELEMETRY_LEN, Peer, read_setpoint};
+use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
+use ibvs_core::attitude::{Command, InnerLoop};
 use ibvs_core::estimator::TIP_IN_VIEW_MIN_DEPTH_M;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
@@ -50,12 +58,64 @@ pub trait FlightComputer {
     /// Runs one control step.
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput;
 
+    /// Whether it flies through the autopilot (the attitude-command inner loop): then the
+    /// run calls [`FlightComputer::step_through_autopilot`] instead of
+    /// [`FlightComputer::step`].
+    fn through_autopilot(&self) -> bool;
+
+    /// One control step through the autopilot: the autopilot's MAVLink bytes of the step in,
+    /// the flight computer's out. The default is the flight computer in process: `link.session`
+    /// (the simulator's copy of the firmware's side of the link) builds the step's input around
+    /// [`FlightComputer::step`] and encodes its setpoint; the firmware in the loop runs its own.
+    fn step_through_autopilot(&mut self, link: AutopilotStep<'_>) -> ControllerOutput {
+        step_through_session(self, link)
+    }
+
     /// The camera calibration the flight computer has learned, the probe tip's image point
     /// (`ibvs_core::Controller::probe_tip_image`), as it last reported it: `None` when it
     /// reports none.
     fn probe_tip_image(&self) -> Option<[f32; 2]> {
         None
     }
+}
+
+/// One step through the autopilot (see [`FlightComputer::step_through_autopilot`]).
+pub struct AutopilotStep<'a> {
+    /// The step's input as the uplink carries it (its navigation and `autopilot_ready` are
+    /// replaced by the autopilot's).
+    pub input: &'a ControllerInput,
+    /// The autopilot's frames of this step.
+    pub from_autopilot: &'a [u8],
+    /// The link clock, ms (one control period per step).
+    pub now_ms: u32,
+    /// The flight computer's side of the link, for a flight computer in process.
+    pub session: &'a mut Session,
+    /// The flight computer's frames of this step, appended.
+    pub to_autopilot: &'a mut Vec<u8>,
+}
+
+/// [`FlightComputer::step_through_autopilot`] in process: the session around `fc`'s step, as
+/// the firmware's application runs it.
+pub fn step_through_session<F: FlightComputer + ?Sized>(
+    fc: &mut F,
+    link: AutopilotStep<'_>,
+) -> ControllerOutput {
+    let AutopilotStep {
+        input,
+        from_autopilot,
+        now_ms,
+        session,
+        to_autopilot,
+    } = link;
+    for &b in from_autopilot {
+        session.push(b, now_ms);
+    }
+    let linked = session.input(now_ms, input);
+    let output = fc.step(&linked);
+    let mut burst = [0u8; MAX_BURST_LEN];
+    let n = session.send(now_ms, &output.command, &mut burst);
+    to_autopilot.extend_from_slice(burst.get(..n).unwrap_or(&[]));
+    output
 }
 
 impl FlightComputer for Controller {
@@ -67,11 +127,18 @@ impl FlightComputer for Controller {
         output
     }
 
+    fn through_autopilot(&self) -> bool {
+        self.config().inner_loop == InnerLoop::Attitude
+    }
+
     /// After every step.
     fn probe_tip_image(&self) -> Option<[f32; 2]> {
         Some(Controller::probe_tip_image(self))
     }
 }
+
+/// The autopilot link's clock step, ms: one control period.
+const LINK_PERIOD_MS: u32 = (CONTROL_PERIOD_S * 1000.0 + 0.5) as u32;
 
 /// The paper's start: drogue minus probe tip, tanker axes (6 m ahead, 2 m right, 2 m up), m.
 pub const PAPER_START_M: [f64; 3] = [6.0, 2.0, -2.0];
@@ -660,6 +727,12 @@ pub fn run_observed(
     let mut samples = Vec::with_capacity(steps);
     let mut reason = None;
     let mut prev_tip = tip(&x, 0.0);
+    // Through the autopilot: its end of the MAVLink link, and the flight computer's in
+    // process (unused by the firmware in the loop, which runs its own).
+    let through_autopilot = fc.through_autopilot();
+    let link_cfg = SessionConfig::default();
+    let mut autopilot_end = Peer::new(link_cfg.ids);
+    let mut session = Session::new(link_cfg);
 
     for k in 0..steps {
         let t = k as f64 * ts;
@@ -701,7 +774,27 @@ pub fn run_observed(
                 ModeRequest::Engage
             },
         };
-        let output = fc.step(&input);
+        let (output, linked) = if through_autopilot {
+            let now_ms = (k as u32).wrapping_mul(LINK_PERIOD_MS);
+            let mut frames = [0u8; MAX_TELEMETRY_LEN];
+            // Outside the schedule the autopilot's report cannot be made: nothing is sent, and
+            // the flight computer's navigation goes stale (counted there).
+            let n = AutopilotTelemetry::of_sample(&input.nav, &link_cfg.nav).map_or(0, |t| {
+                autopilot_end.telemetry(&t, autopilot.follows_setpoints(), now_ms, &mut frames)
+            });
+            let mut to_autopilot = Vec::new();
+            let output = fc.step_through_autopilot(AutopilotStep {
+                input: &input,
+                from_autopilot: &frames[..n],
+                now_ms,
+                session: &mut session,
+                to_autopilot: &mut to_autopilot,
+            });
+            let read = read_setpoint(&to_autopilot, link_cfg.nav.track_rad);
+            (output, read.setpoint)
+        } else {
+            (fc.step(&input), None)
+        };
         let surfaces = match &output.command {
             Command::Surfaces(c) => ReceiverCommand {
                 elevator_rad: f64::from(c.elevator_rad),
@@ -710,7 +803,13 @@ pub fn run_observed(
                 rudder_rad: f64::from(c.rudder_rad),
             },
             Command::Attitude(sp) => {
-                autopilot.receive(sp, t);
+                // Through the link, the setpoint it carried (none: the autopilot flies on
+                // its last, then times out).
+                match (through_autopilot, &linked) {
+                    (false, _) => _ = autopilot.receive(sp, t),
+                    (true, Some(sp)) => _ = autopilot.receive(sp, t),
+                    (true, None) => {}
+                }
                 autopilot.command(&x, t, ts)
             }
         };

@@ -8,13 +8,17 @@
 //! core's `f32` arithmetic in IEEE single precision without fused or flushed operations, the
 //! outputs are in fact identical bit for bit, and that is checked too.
 
+use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
+use autopilot_link::{quaternion_zyx, wrap_pi};
 use host_sim::montecarlo::{self, CampaignComputer, RunOutcome, RunRecord};
 use host_sim::pil::{PilFlightComputer, firmware_elf};
 use host_sim::scenario::PRESETS;
 use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{Outcome, Run, Scenario, run};
+use ibvs_core::attitude::{Command, InnerLoop};
 use ibvs_core::wire::{ClockSource, CostUnit, LinkStatus, ResetCause, config_id};
 use ibvs_core::{Controller, ControllerConfig, Mode, OuterLaw, Procedure};
+use serde_json::{Value, json};
 
 /// The mode sequence of a run (consecutive repeats removed).
 fn modes(r: &Run) -> Vec<Mode> {
@@ -165,6 +169,134 @@ fn pil_flies_every_presets_configuration_like_the_in_process_controller() {
             .iter()
             .any(|(c, _)| c.inner_loop == ibvs_core::attitude::InnerLoop::Attitude),
         "{names:?}"
+    );
+}
+
+/// Docking through the autopilot over MAVLink: the firmware reads the simulated autopilot's
+/// telemetry on its second serial port (USART2) and sends its heartbeat and setpoints there.
+/// The run equals the in-process one bit for bit (every output; every MAVLink byte the
+/// firmware sent equals what the in-process session encodes for the same outputs), the
+/// firmware's link counters say nothing was lost, and pymavlink (an implementation we did
+/// not write) decodes the firmware's stream: every frame's id, CRC with its CRC extra,
+/// header and fields, one setpoint per control step (50 Hz on the link clock) and a heartbeat
+/// every 50 steps (1 Hz).
+#[test]
+fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_reads_it() {
+    let file = ScenarioFile::load("autopilot-level2").expect("preset");
+    let (scenario, cfg) = (file.scenario(), file.controller_config());
+    assert_eq!(cfg.inner_loop, InnerLoop::Attitude);
+    let mut controller = Controller::new(cfg).expect("valid config");
+    let reference = run(&scenario, &mut controller).expect("in-process run");
+    assert_eq!(
+        reference.summary.outcome,
+        Outcome::Docked,
+        "{:?}",
+        reference.summary
+    );
+
+    let elf = firmware_elf().expect("firmware ELF");
+    let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
+    pil.configure(&cfg).expect("applied");
+    let got = run(&scenario, &mut pil).expect("PIL run");
+    let failure = pil.last_error().map(ToString::to_string);
+    let telemetry = pil.refresh_telemetry().expect("telemetry");
+    let sent = pil.link().autopilot_sent().to_vec();
+    let received = pil.link().autopilot_received().to_vec();
+    let (_, log) = pil.shutdown();
+    assert_eq!(failure, None, "link failure; firmware log:\n{log}");
+    assert_eq!(got.samples.len(), reference.samples.len());
+    for (k, (a, b)) in got.samples.iter().zip(&reference.samples).enumerate() {
+        assert_eq!(a.output, b.output, "step {k}");
+    }
+    assert_eq!(got.summary.outcome, Outcome::Docked);
+
+    // The firmware's MAVLink bytes: the in-process session's for the same outputs.
+    let mut session = Session::new(SessionConfig::default());
+    let mut expected_bytes = Vec::new();
+    let mut expected = Vec::new();
+    let mut seq = 0u8;
+    for (k, sample) in reference.samples.iter().enumerate() {
+        let now = 20 * k as u32;
+        let mut burst = [0u8; MAX_BURST_LEN];
+        let n = session.send(now, &sample.output.command, &mut burst);
+        expected_bytes.extend_from_slice(&burst[..n]);
+        let header = |name: &str, seq: u8, fields: Value| {
+            json!({"name": name, "seq": seq, "src_system": 1, "src_component": 191,
+                   "fields": fields})
+        };
+        if k % 50 == 0 {
+            expected.push(header(
+                "HEARTBEAT",
+                seq,
+                json!({"type": 18, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
+                       "system_status": 4, "mavlink_version": 3}),
+            ));
+            seq = seq.wrapping_add(1);
+        }
+        let Command::Attitude(sp) = sample.output.command else {
+            panic!("step {k}: not an attitude command")
+        };
+        let q = quaternion_zyx(sp.roll_rad, sp.pitch_rad, wrap_pi(sp.yaw_rad));
+        expected.push(header(
+            "SET_ATTITUDE_TARGET",
+            seq,
+            json!({"time_boot_ms": now, "target_system": 1, "target_component": 1,
+                   "type_mask": 7, "q": q, "thrust": sp.throttle,
+                   "body_roll_rate": 0.0, "body_pitch_rate": 0.0, "body_yaw_rate": 0.0}),
+        ));
+        seq = seq.wrapping_add(1);
+    }
+    assert!(
+        received == expected_bytes,
+        "the firmware's MAVLink bytes differ"
+    );
+
+    // What the firmware counted on the link: every frame of the autopilot's used, nothing
+    // lost, every navigation sample built.
+    let steps = reference.samples.len() as u32;
+    let heartbeats = steps.div_ceil(50);
+    let a = telemetry.autopilot;
+    assert_eq!(a.frames_used, 4 * steps + heartbeats, "{a:?}");
+    assert_eq!(
+        (
+            a.noise_bytes,
+            a.bad_crc,
+            a.dropped,
+            a.rx_errors,
+            a.tx_dropped
+        ),
+        (0, 0, 0, 0, 0),
+        "{a:?}"
+    );
+    assert_eq!(
+        a.nav_missing + a.nav_stale + a.nav_schedule + a.nav_non_finite,
+        0
+    );
+    assert!(!sent.is_empty());
+
+    // pymavlink decodes the firmware's stream, frame by frame (the same script as the
+    // codec's host tests; it fails, not skips, without pymavlink).
+    let dir = std::env::temp_dir().join(format!("ibvs-pil-mavlink-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let (frames, want) = (dir.join("frames.bin"), dir.join("expected.json"));
+    std::fs::write(&frames, &received).expect("written");
+    std::fs::write(&want, serde_json::to_vec(&expected).expect("json")).expect("written");
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../autopilot-link/tests/mavlink_check.py"
+    );
+    let out = std::process::Command::new("python3")
+        .arg(script)
+        .arg("check")
+        .arg(&frames)
+        .arg(&want)
+        .output()
+        .expect("python3 runs");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        out.status.success(),
+        "pymavlink: {}",
+        String::from_utf8_lossy(&out.stderr)
     );
 }
 

@@ -135,6 +135,10 @@ impl FlightComputer for Recorder {
         self.0.push(*input);
         ControllerOutput::default()
     }
+
+    fn through_autopilot(&self) -> bool {
+        false
+    }
 }
 
 /// The run starts from the true aircraft's trim and the navigation reports perturbations from

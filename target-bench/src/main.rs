@@ -110,6 +110,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
 use clap::Parser;
 use host_sim::pil::{self, PilFlightComputer};
 use host_sim::scenario::ScenarioFile;
@@ -170,12 +171,17 @@ struct Workload {
     /// the default).
     config: ControllerConfig,
     inputs: Vec<ControllerInput>,
+    /// Through the autopilot: the autopilot's MAVLink bytes of each step, sent to the
+    /// firmware's autopilot port before the step's measurement frame (empty otherwise).
+    autopilot: Vec<Vec<u8>>,
 }
 
-/// Records every input the controller sees while it flies.
+/// Records every input the controller sees while it flies (through the autopilot: the
+/// uplink's input and the autopilot's bytes).
 struct Recorder {
     controller: Controller,
     inputs: Vec<ControllerInput>,
+    autopilot: Vec<Vec<u8>>,
 }
 
 impl FlightComputer for Recorder {
@@ -183,7 +189,20 @@ impl FlightComputer for Recorder {
         self.inputs.push(*input);
         self.controller.step(input)
     }
+
+    fn through_autopilot(&self) -> bool {
+        self.controller.through_autopilot()
+    }
+
+    fn step_through_autopilot(&mut self, link: sim::AutopilotStep<'_>) -> ControllerOutput {
+        self.inputs.push(*link.input);
+        self.autopilot.push(link.from_autopilot.to_vec());
+        sim::step_through_session(&mut self.controller, link)
+    }
 }
+
+/// What a recorded flight gives a workload: the inputs, the autopilot's bytes, the outcome.
+type Recorded = (Vec<ControllerInput>, Vec<Vec<u8>>, String);
 
 type Error = Box<dyn std::error::Error>;
 
@@ -192,10 +211,11 @@ fn record(
     scenario: &Scenario,
     config: ControllerConfig,
     faults: &[SimFault],
-) -> Result<(Vec<ControllerInput>, String), Error> {
+) -> Result<Recorded, Error> {
     let mut rec = Recorder {
         controller: Controller::new(config)?,
         inputs: Vec::new(),
+        autopilot: Vec::new(),
     };
     let run = sim::run_with_faults(scenario, &mut rec, faults)?;
     let s = &run.summary;
@@ -204,7 +224,7 @@ fn record(
         (None, Some(m)) => format!("{:?}, miss {m:.3} m", s.outcome),
         (None, None) => format!("{:?}", s.outcome),
     };
-    Ok((rec.inputs, outcome.to_lowercase()))
+    Ok((rec.inputs, rec.autopilot, outcome.to_lowercase()))
 }
 
 /// A preset scenario flown with the firmware's configuration (the default: the refuelling
@@ -303,7 +323,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
     let mut ideal = Vec::new();
     for (name, what, scenario, faults, expected) in flown {
         let config = ControllerConfig::default();
-        let (inputs, outcome) = record(&scenario, config, &faults)?;
+        let (inputs, autopilot, outcome) = record(&scenario, config, &faults)?;
         if !outcome.contains(expected) {
             return Err(format!("workload {name}: expected {expected}, flew {outcome}").into());
         }
@@ -317,6 +337,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
             what: format!("{what}; {outcome}"),
             config,
             inputs,
+            autopilot,
         });
     }
 
@@ -328,17 +349,18 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         seed: 1,
         ..file.scenario()
     };
-    let (inputs, outcome) = record(&autopilot, config, &[])?;
+    let (inputs, autopilot_bytes, outcome) = record(&autopilot, config, &[])?;
     if !outcome.contains("docked") {
         return Err(format!("workload autopilot: expected docked, flew {outcome}").into());
     }
     out.push(Workload {
         name: "autopilot",
         what: format!(
-            "autopilot-level2 seed 1: level II turbulence flown through the autopilot (attitude and throttle setpoints); {outcome}"
+            "autopilot-level2 seed 1: level II turbulence flown through the autopilot over MAVLink (its telemetry in, attitude and throttle setpoints out); {outcome}"
         ),
         config,
         inputs,
+        autopilot: autopilot_bytes,
     });
 
     // The calm docking's inputs with the navigation invalid (NaN) from step 200 on: 25 held
@@ -353,6 +375,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
             .into(),
         config: ControllerConfig::default(),
         inputs: nav_lost,
+        autopilot: Vec::new(),
     });
 
     // The ideal docking's inputs, then 50 steps docked and 100 with the contact lost.
@@ -370,6 +393,7 @@ fn workloads() -> Result<Vec<Workload>, Error> {
         what: "the ideal docking's inputs, 50 steps docked, then contact lost: breakaway".into(),
         config: ControllerConfig::default(),
         inputs: docked,
+        autopilot: Vec::new(),
     });
     Ok(out)
 }
@@ -415,7 +439,18 @@ struct BoardReport {
     encode_instructions: Option<u32>,
     /// The control cycle's worst case over the recorded dockings: the dearest decode, step
     /// and encode added (each the maximum over every frame, so at least any one frame's).
+    /// The workloads of the peer's link alone (the surface loops).
     control_instructions: Option<u32>,
+    /// Through the autopilot (the `autopilot` workload): the dearest decode (the measurement
+    /// frame, the autopilot's MAVLink bytes since the last step and the navigation sample
+    /// built from them), encode (the command frame and the MAVLink frames) and their cycle
+    /// with the step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    autopilot_decode_instructions: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    autopilot_encode_instructions: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    autopilot_control_instructions: Option<u32>,
     /// The control path's stack high-water mark, bytes.
     stack_bytes: Option<u32>,
     /// The step's stack from its machine code: its frame and its deepest callee's (`null`
@@ -497,12 +532,33 @@ fn replay(elf: &Path, w: &Workload) -> Result<Replay, Error> {
         control_stack: None,
         firmware_stack: None,
     };
+    // Through the autopilot: the in-process side of the link beside the reference.
+    let mut session = Session::new(SessionConfig::default());
     for (k, input) in w.inputs.iter().enumerate() {
         let before = reference.mode();
-        let want = reference.step(input);
-        let d = fw
-            .try_step(input)
-            .map_err(|e| format!("{}: step {k}: {e}", w.name))?;
+        let d = match w.autopilot.get(k) {
+            Some(bytes) => {
+                let now = 20 * k as u32;
+                bytes.iter().for_each(|&b| session.push(b, now));
+                let linked = session.input(now, input);
+                let want = reference.step(&linked);
+                let mut burst = [0u8; MAX_BURST_LEN];
+                session.send(now, &want.command, &mut burst);
+                let mut to_autopilot = Vec::new();
+                let d = fw
+                    .try_step_through_autopilot(input, bytes, &mut to_autopilot)
+                    .map_err(|e| format!("{}: step {k}: {e}", w.name))?;
+                (want, d)
+            }
+            None => {
+                let want = reference.step(input);
+                let d = fw
+                    .try_step(input)
+                    .map_err(|e| format!("{}: step {k}: {e}", w.name))?;
+                (want, d)
+            }
+        };
+        let (want, d) = d;
         if d.output != want {
             return Err(format!(
                 "{}: step {k}: the firmware's output differs from the in-process controller's:\n\
@@ -628,6 +684,21 @@ const GUARDED: &[(&str, &str, &[&str])] = &[
     ("qemu", "decode_instructions", &["decode_instructions"]),
     ("qemu", "encode_instructions", &["encode_instructions"]),
     ("qemu", "control_instructions", &["control_instructions"]),
+    (
+        "qemu",
+        "autopilot_decode_instructions",
+        &["autopilot_decode_instructions"],
+    ),
+    (
+        "qemu",
+        "autopilot_encode_instructions",
+        &["autopilot_encode_instructions"],
+    ),
+    (
+        "qemu",
+        "autopilot_control_instructions",
+        &["autopilot_control_instructions"],
+    ),
     ("qemu", "stack_bytes", &["stack_bytes"]),
     // The step's static stack (its frame and its deepest callee's: the f405 board's only
     // stack figure), which must exist like the other static bounds.
@@ -843,6 +914,9 @@ impl Static {
             decode_instructions: None,
             encode_instructions: None,
             control_instructions: None,
+            autopilot_decode_instructions: None,
+            autopilot_encode_instructions: None,
+            autopilot_control_instructions: None,
             stack_bytes: None,
             stack_bytes_bound: self.step.as_ref().ok().map(|b| b.stack_bytes),
             flash_bytes: 0,
@@ -894,6 +968,8 @@ fn run(args: Args) -> Result<bool, Error> {
     let mut all_step = Vec::new();
     let mut all_decode = Vec::new();
     let mut all_encode = Vec::new();
+    // Through the autopilot: its own cycle (a second protocol's decode and encode in it).
+    let (mut ap_step, mut ap_decode, mut ap_encode) = (Vec::new(), Vec::new(), Vec::new());
     let mut control_stack = 0u32;
     let mut detail = Vec::new();
     let workloads = if args.no_pil {
@@ -919,8 +995,14 @@ fn run(args: Args) -> Result<bool, Error> {
         }
         visited.extend(&r.modes);
         all_step.extend_from_slice(&r.step);
-        all_decode.extend_from_slice(&r.decode);
-        all_encode.extend_from_slice(&r.encode);
+        if w.autopilot.is_empty() {
+            all_decode.extend_from_slice(&r.decode);
+            all_encode.extend_from_slice(&r.encode);
+        } else {
+            ap_step.extend_from_slice(&r.step);
+            ap_decode.extend_from_slice(&r.decode);
+            ap_encode.extend_from_slice(&r.encode);
+        }
         control_stack = control_stack.max(r.control_stack.unwrap_or(0));
         let by_mode: BTreeMap<&String, Value> = r
             .by_mode
@@ -996,6 +1078,9 @@ fn run(args: Args) -> Result<bool, Error> {
             decode_instructions: all_decode.iter().max().copied(),
             encode_instructions: all_encode.iter().max().copied(),
             control_instructions: control_instructions(&all_decode, &all_step, &all_encode),
+            autopilot_decode_instructions: ap_decode.iter().max().copied(),
+            autopilot_encode_instructions: ap_encode.iter().max().copied(),
+            autopilot_control_instructions: control_instructions(&ap_decode, &ap_step, &ap_encode),
             stack_bytes: (!args.no_pil).then_some(control_stack),
             flash_bytes: qemu_sizes.flash_bytes,
             ram_bytes: qemu_sizes.ram_bytes,
@@ -1006,6 +1091,9 @@ fn run(args: Args) -> Result<bool, Error> {
             decode_instructions: None,
             encode_instructions: None,
             control_instructions: None,
+            autopilot_decode_instructions: None,
+            autopilot_encode_instructions: None,
+            autopilot_control_instructions: None,
             stack_bytes: None,
             flash_bytes: f405_sizes.flash_bytes,
             ram_bytes: f405_sizes.ram_bytes,
@@ -1090,6 +1178,9 @@ mod tests {
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
                 "control_instructions": 10800,
+                "autopilot_decode_instructions": 9000,
+                "autopilot_encode_instructions": 3000,
+                "autopilot_control_instructions": 14800,
                 "stack_bytes": 276,
                 "stack_bytes_bound": 300,
                 "flash_bytes": flash,
@@ -1113,6 +1204,9 @@ mod tests {
                 "decode_instructions": 4000,
                 "encode_instructions": 6000,
                 "control_instructions": 10800,
+                "autopilot_decode_instructions": 9000,
+                "autopilot_encode_instructions": 3000,
+                "autopilot_control_instructions": 14800,
                 "stack_bytes": 276,
                 "stack_bytes_bound": 300,
                 "flash_bytes": 60000,

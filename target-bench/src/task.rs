@@ -42,6 +42,8 @@ pub const ON_BYTES: &str = "firmware::app::App::on_bytes";
 pub const ON_PERIODS: &str = "firmware::app::App::on_periods";
 /// The receive interrupt.
 pub const USART1: &str = "USART1";
+/// The autopilot link's (MAVLink) interrupt: the same driver on USART2.
+pub const USART2: &str = "USART2";
 /// The control-period tick.
 pub const SYSTICK: &str = "SysTick";
 
@@ -59,6 +61,17 @@ const OTHER_FRAMES: [&str; 4] = [
     "ibvs_core::wire::config_from_bytes",
     "ibvs_core::wire::encode_config_report",
     "ibvs_core::wire::encode_telemetry",
+];
+
+/// Out of the control task's bound: the attitude-command loop's MAVLink work in the step's
+/// window (the navigation sample from the autopilot's messages, the setpoint's encoding).
+/// The firmware flies the surface loops by default, which never call them; through the
+/// autopilot its cost is measured (the `autopilot` workload's control cycle,
+/// `docs/benchmarks.md`), not bounded. The autopilot's bytes are decoded outside the task,
+/// in the main loop's pass before it.
+const AUTOPILOT_LINK: [&str; 2] = [
+    "autopilot_link::session::Session::input",
+    "autopilot_link::session::Session::send",
 ];
 
 /// Out of the control task: the decode of a frame with a full COBS block followed by another
@@ -166,6 +179,14 @@ const SIZED: [SizedCall; 15] = [
 /// the library has no line information).
 pub const SIZED_LOOPS: &[SizedLoop] = &[
     SizedLoop {
+        function: "__aeabi_memcpy8",
+        ordinal: 0,
+        instructions: 13,
+        bytes_per_iteration: 16,
+        at_most_bytes: None,
+        reason: "four words an iteration while at least 4 bytes are left (__aeabi_memcpy4's loop, inlined into it: the application's copies of a measurement frame waiting for the autopilot's attitude)",
+    },
+    SizedLoop {
         function: "__aeabi_memcpy4",
         ordinal: 0,
         instructions: 13,
@@ -250,12 +271,20 @@ pub const SIZED_LOOPS: &[SizedLoop] = &[
 ];
 
 /// The sized library functions' calls with a smaller count.
-pub const SIZED_CALLEES: &[SizedCallee] = &[SizedCallee {
-    function: "__aeabi_memcpy4",
-    callee: "compiler_builtins::mem::memcpy",
-    at_most_bytes: 3,
-    reason: "what is left after its 4-byte copies (fewer than 4 bytes)",
-}];
+pub const SIZED_CALLEES: &[SizedCallee] = &[
+    SizedCallee {
+        function: "__aeabi_memcpy4",
+        callee: "compiler_builtins::mem::memcpy",
+        at_most_bytes: 3,
+        reason: "what is left after its 4-byte copies (fewer than 4 bytes)",
+    },
+    SizedCallee {
+        function: "__aeabi_memcpy8",
+        callee: "compiler_builtins::mem::memcpy",
+        at_most_bytes: 3,
+        reason: "what is left after its 4-byte copies (fewer than 4 bytes), as __aeabi_memcpy4's",
+    },
+];
 
 /// The loops of the control task's machine code and their bounds. Each is found by its
 /// function and its ordinal among that function's loops (by header address), and checked
@@ -279,6 +308,22 @@ pub const LOOPS: &[LoopBound] = &[
         instructions: 5,
         iterations: 1,
         reason: "rx_errors.fetch_add (a receive error or the queue full, once a run): as SysTick's, nothing preempts USART1",
+    },
+    LoopBound {
+        function: "USART2",
+        ordinal: 0,
+        source: &["usart2::__cortex_m_rt_USART2", "fetch_add"],
+        instructions: 5,
+        iterations: 1,
+        reason: "rx_errors.fetch_add, as USART1's (the same driver): nothing preempts USART2",
+    },
+    LoopBound {
+        function: "USART2",
+        ordinal: 1,
+        source: &["serial::SerialQueues", "serial::Reader"],
+        instructions: 11,
+        iterations: 1,
+        reason: "the transmit loop, as USART1's (the same driver): at most 2 bytes a run, the data register then full for a byte time (10 bits at 461,538 baud, 3,640 cycles), longer than the run (checked); on QEMU the queue is empty inside the task (the step's MAVLink frames are queued after the task's window, in the pass's send)",
     },
     LoopBound {
         function: "USART1",
@@ -412,11 +457,21 @@ const SYSTICK_PERIOD_CYCLES: u64 = cycles::CORE_HZ / 50;
 const PCLK2_HZ: u64 = 84_000_000;
 /// The link's nominal baud rate (the `f405` board's `BAUD_BPS`).
 const BAUD_BPS: u64 = 921_600;
+/// APB1 (USART2's bus clock) on the `f405` board.
+const PCLK1_HZ: u64 = 42_000_000;
 /// Core cycles between two received bytes at the fastest: 10 bits (8N1) at the baud rate the
 /// divider gives (BRR = round(PCLK2 / baud) = 91: 923,077 baud), in core cycles.
 pub fn byte_period_cycles() -> u64 {
     let brr = (PCLK2_HZ + BAUD_BPS / 2) / BAUD_BPS;
     10 * brr * (cycles::CORE_HZ / PCLK2_HZ)
+}
+/// The autopilot link's baud rate (the `f405` board's `AUTOPILOT_BAUD_BPS`).
+const AUTOPILOT_BAUD_BPS: u64 = 460_800;
+/// The same for the autopilot's link on USART2 (BRR = round(PCLK1 / baud) = 91: 461,538
+/// baud): 3,640 core cycles.
+pub fn autopilot_byte_period_cycles() -> u64 {
+    let brr = (PCLK1_HZ + AUTOPILOT_BAUD_BPS / 2) / AUTOPILOT_BAUD_BPS;
+    10 * brr * (cycles::CORE_HZ / PCLK1_HZ)
 }
 /// Exception entry (stacking eight words, the vector fetch overlapped): 12 cycles (TRM's
 /// interrupt latency); exit (unstacking) taken as the same.
@@ -491,6 +546,8 @@ pub struct BoardBounds {
     pub task_with_interrupts: Figures,
     /// USART1 (received bytes at the link's rate).
     pub usart1: Interrupt,
+    /// USART2 (the autopilot's MAVLink bytes at its link's rate).
+    pub usart2: Interrupt,
     /// SysTick (the control period).
     pub systick: Interrupt,
     /// The task's parts on their own (each its own longest path: they add up to more than
@@ -543,9 +600,10 @@ pub fn assumptions(schedule: Schedule) -> serde_json::Value {
         "left_out": "the configuration frames' path (App::configure, config_from_bytes, encode_config_report: another frame kind); the PBVS law (the firmware flies IBVS); libm's argument reduction rem_pio2f (sinf/cosf reach it only beyond 9 pi / 4 rad; the follow-up's are of trim pitches within 0.8 rad); panics (they end the task: safe frame, reset)",
         "loops": "every loop has a declared bound with its reason (the passes back to its header per entry), checked against the loop's source and size (target-bench's task.rs, LOOPS and SIZED_LOOPS; listed by --loops); a loop costs its bound x its dearest pass around plus its dearest last pass out of it (for a loop tested at its top, the test); memcpy and memset are costed for the byte count their call passes (traced back to constants), their loops bounded by the bytes each iteration moves",
         "interrupts": format!(
-            "USART1 from two independent sources, a received byte and the transmit register emptying, each at most once per {} cycles (10 bits a byte at 923,077 baud: BRR 91 at 84 MHz for 921,600), so up to 2 x ceil(R / {}) runs in a window R; its transmit loop sends at most 2 bytes a run (the second write leaves the data register full for a byte time, longer than the handler's bound, which the analysis checks); SysTick once per {} cycles (20 ms); all at the same priority (none preempts another); each costs its handler's bound, entry {EXCEPTION_ENTRY} and exit {EXCEPTION_EXIT} cycles, two flash accesses (vector, return) and one more pass of the task's dearest LDREX/STREX retry loop (the exclusive store it can make fail); counted by response-time iteration over the task's own bound, the link assumed saturated",
+            "USART1 from two independent sources, a received byte and the transmit register emptying, each at most once per {} cycles (10 bits a byte at 923,077 baud: BRR 91 at 84 MHz for 921,600), so up to 2 x ceil(R / {}) runs in a window R; its transmit loop sends at most 2 bytes a run (the second write leaves the data register full for a byte time, longer than the handler's bound, which the analysis checks); USART2 (the autopilot's MAVLink, the same driver) likewise once per {} cycles each way (461,538 baud: BRR 91 at 42 MHz for 460,800); SysTick once per {} cycles (20 ms); all at the same priority (none preempts another); each costs its handler's bound, entry {EXCEPTION_ENTRY} and exit {EXCEPTION_EXIT} cycles, two flash accesses (vector, return) and one more pass of the task's dearest LDREX/STREX retry loop (the exclusive store it can make fail); counted by response-time iteration over the task's own bound, the link assumed saturated",
             byte_period_cycles(),
             byte_period_cycles(),
+            autopilot_byte_period_cycles(),
             SYSTICK_PERIOD_CYCLES
         ),
     })
@@ -650,6 +708,7 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
         .chain(OTHER_FRAMES)
         .chain(LONG_FRAMES)
         .chain(UNREACHED)
+        .chain(AUTOPILOT_LINK)
         .collect();
     let mut parts = Vec::new();
     let task = match schedule {
@@ -675,6 +734,7 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
     // cycles up to 2 x ceil(R / byte time) runs; one source of half the period would count
     // one run too few in a window shorter than half a byte time).
     let (mut usart1, bu) = interrupt(d, USART1, byte_period_cycles(), 2, &task)?;
+    let (mut usart2, bu2) = interrupt(d, USART2, autopilot_byte_period_cycles(), 2, &task)?;
     let (mut systick, bs) = interrupt(d, SYSTICK, SYSTICK_PERIOD_CYCLES, 1, &task)?;
     // The transmit loop's declared bound (2 bytes a run) holds only while a run is shorter
     // than the byte time the second byte keeps the data register full.
@@ -685,16 +745,24 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
             byte_period_cycles()
         ));
     }
-    parts.extend([bu, bs]);
+    if usart2.cycles >= autopilot_byte_period_cycles() {
+        return Err(format!(
+            "the USART2 handler's bound ({} cycles) is not under a byte time ({} cycles): its transmit loop's bound of 2 bytes a run (task.rs, LOOPS) assumes it is",
+            usart2.cycles,
+            autopilot_byte_period_cycles()
+        ));
+    }
+    parts.extend([bu, bu2, bs]);
     let sources = |f: fn(&Interrupt) -> u64| {
-        [usart1, systick].map(|i| (f(&i), i.period_cycles, i.per_period))
+        [usart1, usart2, systick].map(|i| (f(&i), i.period_cycles, i.per_period))
     };
     let (cycles, counts) = response(task.cycles, &sources(|i| i.cycles))
         .ok_or("the interrupts' load does not leave the task a bound under a second")?;
     let (zero_wait, _) = response(task.cycles_zero_wait, &sources(|i| i.cycles_zero_wait))
         .ok_or("the interrupts' load does not leave the task a bound under a second")?;
     usart1.count = counts[0];
-    systick.count = counts[1];
+    usart2.count = counts[1];
+    systick.count = counts[2];
     let byte_exclude: Vec<&str> = lockstep_exclude
         .iter()
         .copied()
@@ -741,6 +809,7 @@ pub fn analyse(d: &Disassembly, schedule: Schedule) -> Result<BoardBounds, Strin
             ..task
         },
         usart1,
+        usart2,
         systick,
         components,
         code_bytes: d.code_bytes(
@@ -761,9 +830,10 @@ pub fn list_loops(d: &Disassembly) -> Result<Vec<crate::wcet::LoopUse>, String> 
         .chain(OTHER_FRAMES)
         .chain(LONG_FRAMES)
         .chain(UNREACHED)
+        .chain(AUTOPILOT_LINK)
         .collect();
     let mut out = Vec::new();
-    for root in [STEP, ON_BYTES, ON_PERIODS, USART1, SYSTICK] {
+    for root in [STEP, ON_BYTES, ON_PERIODS, USART1, USART2, SYSTICK] {
         let b = d.bound(root, rules(&exclude, true), Metric::Instructions)?;
         out.extend(b.loops);
     }

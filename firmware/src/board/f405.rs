@@ -24,7 +24,7 @@
 //!    the `provision-bor` build programs it, `crate::option_bytes`);
 //! 7. USART1 at 921,600 baud 8N1 on PA9 (TX) / PA10 (RX, pull-up), alternate function 7, or on
 //!    PB6 / PB7 with the `usart1-pb6-pb7` feature (the STM32F4DISCOVERY, whose PA9 is USB
-//!    VBUS with a capacitor on it); USART2, the autopilot's MAVLink link, at the same speed on
+//!    VBUS with a capacitor on it); USART2, the autopilot's MAVLink link, at 460,800 baud on
 //!    PA2 (TX) / PA3 (RX, pull-up); the DWT cycle counter measures costs ([`DwtCounter`]);
 //! 8. SysTick at 50 Hz in both schedules (free-running, the flight default, steps on it;
 //!    lockstep, the `lockstep` feature for hardware in the loop, only wakes on it, so the
@@ -63,6 +63,9 @@ use crate::store::{ConfigStore, Persist};
 
 /// Link baud rate, bit/s.
 pub const BAUD_BPS: u32 = 921_600;
+
+/// The autopilot link's (MAVLink, USART2) baud rate, bit/s (ArduPilot's `SERIALn_BAUD` 460).
+pub const AUTOPILOT_BAUD_BPS: u32 = 460_800;
 
 /// The DWT cycle counter.
 pub struct DwtCounter;
@@ -207,13 +210,14 @@ fn fly(dp: pac::Peripherals, cp: cortex_m::Peripherals, csr: u32, debugger: bool
     const BRR: u16 = ((PCLK2_HZ + BAUD_BPS / 2) / BAUD_BPS) as u16;
     let link = super::usart1::init(dp.USART1, Some(BRR));
     // 7b. USART2, the autopilot's MAVLink link, on PA2 (TX) / PA3 (RX, pull-up), alternate
-    // function 7, at the same speed from APB1: 42 MHz / 921,600 rounds to 46, which gives
-    // 913,043 baud, -0.93 % (inside the receiver's 3.41 % with the crystal's error).
+    // function 7, at 460,800 baud from APB1: 42 MHz / 460,800 rounds to 91, which gives
+    // 461,538 baud, +0.16 %. Half the peer link's speed: a step's MAVLink (158 bytes in, 72
+    // out) takes 17 % of it, and its interrupts land on the control task half as often.
     let _ap_tx = gpioa.pa2.into_alternate::<7>();
     let _ap_rx = gpioa.pa3.into_alternate::<7>().internal_pull_up(true);
     USART2::enable(&mut rcc);
     USART2::reset(&mut rcc);
-    const AUTOPILOT_BRR: u16 = ((PCLK1_HZ + BAUD_BPS / 2) / BAUD_BPS) as u16;
+    const AUTOPILOT_BRR: u16 = ((PCLK1_HZ + AUTOPILOT_BAUD_BPS / 2) / AUTOPILOT_BAUD_BPS) as u16;
     let autopilot = super::usart2::init(dp.USART2, Some(AUTOPILOT_BRR));
 
     let previous = super::fault::take_previous();
