@@ -17,7 +17,7 @@ use host_sim::scenario::ScenarioFile;
 use host_sim::sim::{Outcome, Run, Scenario, run};
 use ibvs_core::attitude::{Command, InnerLoop};
 use ibvs_core::wire::{ClockSource, CostUnit, LinkStatus, ResetCause, config_id};
-use ibvs_core::{Controller, ControllerConfig, Mode, OuterLaw, Procedure};
+use ibvs_core::{Controller, ControllerConfig, ControllerInput, Mode, OuterLaw, Procedure};
 use serde_json::{Value, json};
 
 /// The mode sequence of a run (consecutive repeats removed).
@@ -172,6 +172,22 @@ fn pil_flies_every_presets_configuration_like_the_in_process_controller() {
     );
 }
 
+/// Runs pymavlink's checker script (`autopilot-link/tests/mavlink_check.py`, as the codec's
+/// host tests do) in `mode` on two files; its output. It fails, not skips, without pymavlink.
+fn mavlink_check(mode: &str, a: &std::path::Path, b: &std::path::Path) -> std::process::Output {
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../autopilot-link/tests/mavlink_check.py"
+    );
+    std::process::Command::new("python3")
+        .arg(script)
+        .arg(mode)
+        .arg(a)
+        .arg(b)
+        .output()
+        .expect("python3 runs")
+}
+
 /// Docking through the autopilot over MAVLink: the firmware reads the simulated autopilot's
 /// telemetry on its second serial port (USART2) and sends its heartbeat and setpoints there.
 /// The run equals the in-process one bit for bit (every output; every MAVLink byte the
@@ -281,22 +297,136 @@ fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_re
     let (frames, want) = (dir.join("frames.bin"), dir.join("expected.json"));
     std::fs::write(&frames, &received).expect("written");
     std::fs::write(&want, serde_json::to_vec(&expected).expect("json")).expect("written");
-    let script = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../autopilot-link/tests/mavlink_check.py"
-    );
-    let out = std::process::Command::new("python3")
-        .arg(script)
-        .arg("check")
-        .arg(&frames)
-        .arg(&want)
-        .output()
-        .expect("python3 runs");
+    let out = mavlink_check("check", &frames, &want);
     let _ = std::fs::remove_dir_all(&dir);
     assert!(
         out.status.success(),
         "pymavlink: {}",
         String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The firmware reads an autopilot it did not hear from our code: an ArduPlane stream of 40
+/// control steps written by pymavlink (a GUIDED heartbeat, then each step
+/// `LOCAL_POSITION_NED`, `VFR_HUD`, `AOA_SSA` and `ATTITUDE`, the aircraft gently rolling and
+/// pitching about the trim), fed to its USART2 beside the measurement frames of a docking's
+/// first steps. Every output and every MAVLink byte it sends equal those of the in-process
+/// controller and session fed the same bytes; it counts every frame used and no navigation
+/// sample refused, and it engages (the heartbeat's GUIDED reached it).
+#[test]
+fn pil_flies_on_an_autopilot_stream_pymavlink_wrote_like_in_process() {
+    const STEPS: u32 = 40;
+    let file = ScenarioFile::load("autopilot-level2").expect("preset");
+    let (scenario, cfg) = (file.scenario(), file.controller_config());
+    let mut reference = Controller::new(cfg).expect("valid config");
+    let flown = run(&scenario, &mut reference).expect("in-process run");
+
+    // pymavlink's stream: one JSON list of every step's messages.
+    let trim = ibvs_core::gains::TRIM;
+    let sigma = (1.0 - 2.255_77e-5 * f64::from(trim.altitude_m)).powf(4.255_88);
+    let eas = f64::from(trim.speed_mps) * sigma.sqrt();
+    let mut messages = vec![json!({"name": "HEARTBEAT", "fields": {"type": 1,
+        "autopilot": 3, "base_mode": 217, "custom_mode": 15, "system_status": 4}})];
+    for k in 0..STEPS {
+        let (t, ms) = (f64::from(k) * 0.02, 20 * k);
+        let (roll, pitch) = (
+            0.05 * (2.0 * t).sin(),
+            f64::from(trim.theta_rad) + 0.01 * t.sin(),
+        );
+        messages.extend([
+            json!({"name": "LOCAL_POSITION_NED", "fields": {"time_boot_ms": ms,
+                "x": 120.0 * t, "y": 0.1 * t, "z": -f64::from(trim.altitude_m),
+                "vx": f64::from(trim.speed_mps) + 0.3 * t, "vy": 0.1, "vz": 0.0}}),
+            json!({"name": "VFR_HUD", "fields": {"airspeed": eas, "groundspeed": 120.0,
+                "heading": 0, "throttle": 50, "alt": trim.altitude_m, "climb": 0.0}}),
+            json!({"name": "AOA_SSA", "fields": {"time_usec": u64::from(ms) * 1000,
+                "AOA": f64::from(trim.alpha_rad).to_degrees() + 0.2 * t, "SSA": 0.1}}),
+            json!({"name": "ATTITUDE", "fields": {"time_boot_ms": ms, "roll": roll,
+                "pitch": pitch, "yaw": 0.002 * t, "rollspeed": 0.1 * (2.0 * t).cos(),
+                "pitchspeed": 0.01 * t.cos(), "yawspeed": 0.002}}),
+        ]);
+    }
+    let dir = std::env::temp_dir().join(format!("ibvs-pil-pymavlink-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let (values, stream) = (dir.join("values.json"), dir.join("stream.bin"));
+    let doc = json!({"src_system": 1, "src_component": 1, "messages": messages});
+    std::fs::write(&values, serde_json::to_vec(&doc).expect("json")).expect("written");
+    let out = mavlink_check("make", &values, &stream);
+    assert!(
+        out.status.success(),
+        "pymavlink: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&stream).expect("the stream");
+    let _ = std::fs::remove_dir_all(&dir);
+    // Its frames, by their length bytes (MAVLink 2: 12 bytes and the payload).
+    let mut frames: Vec<&[u8]> = Vec::new();
+    let mut rest = bytes.as_slice();
+    while rest.len() >= 12 {
+        assert_eq!(rest[0], 0xFD, "a MAVLink 2 frame");
+        let (frame, tail) = rest.split_at(12 + usize::from(rest[1]));
+        frames.push(frame);
+        rest = tail;
+    }
+    assert!(rest.is_empty());
+    assert_eq!(frames.len(), 1 + 4 * STEPS as usize);
+
+    let elf = firmware_elf().expect("firmware ELF");
+    let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
+    pil.configure(&cfg).expect("applied");
+    let mut twin = Controller::new(cfg).expect("valid config");
+    let mut session = Session::new(SessionConfig::default());
+    let mut engaged = false;
+    for k in 0..STEPS as usize {
+        // The heartbeat rides with the first step's frames.
+        let first = if k == 0 { 0 } else { 1 + 4 * k };
+        let step_bytes: Vec<u8> = frames[first..1 + 4 * (k + 1)].concat();
+        let uplink = ControllerInput {
+            measurement: flown.samples[k].measurement,
+            nav: ibvs_core::nav::NavSample::default(),
+            probe_contact: false,
+            autopilot_ready: false,
+            // Engage asked until flown, as the simulator asks it.
+            request: if engaged {
+                ibvs_core::ModeRequest::None
+            } else {
+                ibvs_core::ModeRequest::Engage
+            },
+        };
+        let mut sent = Vec::new();
+        let d = pil
+            .try_step_through_autopilot(&uplink, &step_bytes, &mut sent)
+            .unwrap_or_else(|e| panic!("step {k}: {e}"));
+        let now = 20 * k as u32;
+        step_bytes.iter().for_each(|&b| session.push(b, now));
+        let want = host_sim::sim::FlightComputer::step(&mut twin, &session.input(now, &uplink));
+        let mut burst = [0u8; MAX_BURST_LEN];
+        let n = session.send(now, &want.command, &mut burst);
+        assert_eq!(d.output, want, "step {k}");
+        assert_eq!(sent, burst[..n], "step {k}: the MAVLink bytes");
+        engaged |= want.mode != Mode::Standby;
+    }
+    let t = pil.refresh_telemetry().expect("telemetry");
+    let (_, log) = pil.shutdown();
+    assert!(engaged, "GUIDED reached the firmware; log:\n{log}");
+    let a = t.autopilot;
+    assert_eq!(a.frames_used as usize, frames.len(), "{a:?}");
+    assert_eq!(
+        (
+            a.nav_missing,
+            a.nav_stale,
+            a.nav_schedule,
+            a.nav_non_finite,
+            a.dropped,
+            a.bad_crc
+        ),
+        (0, 0, 0, 0, 0, 0),
+        "{a:?}"
+    );
+    assert_eq!(
+        a,
+        session.counters(),
+        "the firmware's counters are the twin's"
     );
 }
 
