@@ -139,6 +139,9 @@ pub const HEARTBEAT_PERIOD_MS: u32 = 1000;
 /// Length of a `HEARTBEAT`'s payload, bytes.
 pub const HEARTBEAT_DATA_LEN: usize = HEARTBEAT_DATA::ENCODED_LEN;
 
+/// Length of a `PARAM_REQUEST_READ` frame, bytes.
+pub const PARAM_REQUEST_FRAME_LEN: usize = 12 + PARAM_REQUEST_READ_DATA::ENCODED_LEN;
+
 /// `MAV_COMP_ID_ONBOARD_COMPUTER`: our component id.
 pub const COMP_ID_ONBOARD_COMPUTER: u8 = 191;
 
@@ -445,7 +448,7 @@ impl Axis {
 }
 
 /// A `param_id`'s name: its bytes up to the first NUL (all 16 when there is none).
-fn param_name(id: &[u8; PARAM_ID_LEN]) -> &[u8] {
+pub(crate) fn param_name(id: &[u8; PARAM_ID_LEN]) -> &[u8] {
     let end = id.iter().position(|&b| b == 0).unwrap_or(PARAM_ID_LEN);
     id.get(..end).unwrap_or(id)
 }
@@ -470,6 +473,22 @@ impl AttitudeTimeConstants {
         self.pitch_s.is_some() && self.roll_s.is_some()
     }
 
+    /// Whether they are those `design` was made for, each within `tolerance` (relative) of
+    /// the design's.
+    pub fn check(&self, design: &AttitudeLoopConfig, tolerance: f32) -> TimeConstantCheck {
+        let near = |got: f32, want: f32| (got - want).abs() <= tolerance * want;
+        match (self.pitch_s, self.roll_s) {
+            (Some(p), Some(r)) => {
+                if near(p, design.pitch_time_constant_s) && near(r, design.roll_time_constant_s) {
+                    TimeConstantCheck::Match
+                } else {
+                    TimeConstantCheck::Mismatch
+                }
+            }
+            _ => TimeConstantCheck::Unknown,
+        }
+    }
+
     /// `cfg` with its `pitch_time_constant_s` and `roll_time_constant_s` replaced by those
     /// that arrived (a missing one keeps `cfg`'s). Only finite positive values are ever kept,
     /// but no range is checked here: the caller puts the result into its
@@ -483,6 +502,18 @@ impl AttitudeTimeConstants {
             ..cfg
         }
     }
+}
+
+/// The autopilot's attitude time constants against a design's
+/// ([`AttitudeTimeConstants::check`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimeConstantCheck {
+    /// Both arrived and each is within the tolerance of the design's.
+    Match,
+    /// Both arrived and one is not.
+    Mismatch,
+    /// Not both arrived yet.
+    Unknown,
 }
 
 /// A message and the time it arrived (the caller's wrapping millisecond clock).

@@ -13,33 +13,41 @@
 //!   mode) streams them: `HEARTBEAT` at 1 Hz on the caller's clock (`MAV_TYPE_FIXED_WING`,
 //!   `MAV_AUTOPILOT_ARDUPILOTMEGA`, `custom_mode` GUIDED or FBWA, armed), then
 //!   `LOCAL_POSITION_NED`, `VFR_HUD`, `AOA_SSA`, and `ATTITUDE` last (the flight computer's
-//!   lockstep barrier, [`crate::session`]).
+//!   lockstep barrier, [`crate::session`]); after the heartbeat, a `PARAM_VALUE` (`REAL32`)
+//!   for each attitude time constant the flight computer asked for since the last step
+//!   ([`Peer::hear`]; ArduPlane's names, its own values, [`Peer::new`]).
 //! - [`read_setpoint`] reads the flight computer's bytes for a step: the last
 //!   `SET_ATTITUDE_TARGET` among them, turned back into an [`AttitudeSetpoint`] (ZYX Euler
-//!   angles of its quaternion, heading relative to the track, throttle = thrust), and the
-//!   frames counted.
+//!   angles of its quaternion, heading relative to the track, throttle = thrust), the
+//!   attitude time constants it asked for (`PARAM_REQUEST_READ` by name), and the frames
+//!   counted.
 //!
 //! Invariants: nothing here panics or allocates; every frame written is whole, with a valid
 //! CRC; a frame read is used only when its CRC (with the dialect's CRC extra) is good.
 
 use ::mavlink::dialects::ardupilotmega::{
     AOA_SSA_DATA, ATTITUDE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MavAutopilot, MavMessage,
-    MavModeFlag, MavState, MavType, VFR_HUD_DATA,
+    MavModeFlag, MavParamType, MavState, MavType, PARAM_VALUE_DATA, VFR_HUD_DATA,
 };
+use ::mavlink::types::CharArray;
 use ::mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message, MessageData, consts};
 use ibvs_core::attitude::AttitudeSetpoint;
 use ibvs_core::nav::NavSample;
 use ibvs_core::schedule::{self, ScheduleError};
 
-use crate::{ARDUPLANE_GUIDED, LinkIds, NavConfig, isa_density_ratio, sin_cos, wrap_pi};
+use crate::{
+    ARDUPLANE_GUIDED, ARDUPLANE_PITCH_TC, ARDUPLANE_ROLL_TC, Axis, LinkIds, NavConfig,
+    isa_density_ratio, param_name, sin_cos, wrap_pi,
+};
 
 /// ArduPlane's `custom_mode` for FBWA (fly by wire A: the pilot's or its own attitude
 /// hold), the mode the simulated autopilot reports when it does not follow setpoints.
 pub const ARDUPLANE_FBWA: u32 = 5;
 
 /// Longest burst [`Peer::telemetry`] writes, bytes.
-pub const MAX_TELEMETRY_LEN: usize = 5 * 12
+pub const MAX_TELEMETRY_LEN: usize = 7 * 12
     + HEARTBEAT_DATA::ENCODED_LEN
+    + 2 * PARAM_VALUE_DATA::ENCODED_LEN
     + LOCAL_POSITION_NED_DATA::ENCODED_LEN
     + VFR_HUD_DATA::ENCODED_LEN
     + AOA_SSA_DATA::ENCODED_LEN
@@ -99,15 +107,30 @@ pub struct Peer {
     ids: LinkIds,
     sequence: u8,
     last_heartbeat_ms: Option<u32>,
+    /// Its pitch and roll attitude time constants, s (`PTCH2SRV_TCONST`, `RLL2SRV_TCONST`).
+    time_constants_s: [f32; 2],
+    /// Which of them the flight computer asked for since the last answer.
+    asked: [bool; 2],
 }
 
 impl Peer {
-    /// The autopilot of `ids` (its system and component), its first frame numbered 0.
-    pub const fn new(ids: LinkIds) -> Self {
+    /// The autopilot of `ids` (its system and component) with the pitch and roll attitude
+    /// time constants `time_constants_s`, its first frame numbered 0.
+    pub const fn new(ids: LinkIds, time_constants_s: [f32; 2]) -> Self {
         Self {
             ids,
             sequence: 0,
             last_heartbeat_ms: None,
+            time_constants_s,
+            asked: [false; 2],
+        }
+    }
+
+    /// Takes note of the parameters the flight computer asked for in `read` (answered in
+    /// the next [`Peer::telemetry`]).
+    pub fn hear(&mut self, read: &SetpointRead) {
+        for (asked, now) in self.asked.iter_mut().zip(read.time_constants_asked) {
+            *asked |= now;
         }
     }
 
@@ -140,6 +163,20 @@ impl Peer {
                 mavlink_version: 3,
             };
             n += self.frame(&hb, &mut buf[n..]);
+        }
+        let names = [ARDUPLANE_PITCH_TC, ARDUPLANE_ROLL_TC];
+        let asked = core::mem::take(&mut self.asked);
+        for ((asked, value), name) in asked.into_iter().zip(self.time_constants_s).zip(names) {
+            if asked {
+                let param = PARAM_VALUE_DATA {
+                    param_value: value,
+                    param_count: 1,
+                    param_index: u16::MAX,
+                    param_id: CharArray::from(name),
+                    param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+                };
+                n += self.frame(&param, &mut buf[n..]);
+            }
         }
         let [pn, pe, pd] = t.position_ned_m;
         let [vn, ve, vd] = t.velocity_ned_mps;
@@ -217,6 +254,9 @@ pub struct SetpointRead {
     pub frames: u32,
     /// Heartbeats among them.
     pub heartbeats: u32,
+    /// The pitch and roll attitude time constants asked for (`PARAM_REQUEST_READ` by
+    /// ArduPlane's or PX4's name).
+    pub time_constants_asked: [bool; 2],
     /// Bytes not in a good frame (noise, a bad CRC, a cut frame).
     pub bad_bytes: u32,
 }
@@ -270,6 +310,13 @@ pub fn read_setpoint(bytes: &[u8], track_rad: f32) -> SetpointRead {
                 out.time_boot_ms = Some(d.time_boot_ms);
             }
             MavMessage::HEARTBEAT(_) => out.heartbeats += 1,
+            MavMessage::PARAM_REQUEST_READ(r) => {
+                match Axis::of_time_constant(param_name(&r.param_id)) {
+                    Some(Axis::Pitch) => out.time_constants_asked[0] = true,
+                    Some(Axis::Roll) => out.time_constants_asked[1] = true,
+                    None => {}
+                }
+            }
             _ => {}
         }
         rest = &rest[len..];
@@ -284,7 +331,7 @@ mod tests {
     use super::*;
     use crate::session::{MAX_BURST_LEN, Session, SessionConfig};
     use crate::{Decoder, quaternion_zyx};
-    use ibvs_core::attitude::Command;
+    use ibvs_core::attitude::{AttitudeLoopConfig, Command};
     use ibvs_core::measurement::CameraMeasurement;
     use ibvs_core::nav::{FlightCondition, LatNav, LonNav};
     use ibvs_core::{ControllerInput, ModeRequest};
@@ -319,7 +366,7 @@ mod tests {
                 ..NavConfig::default()
             };
             let t = AutopilotTelemetry::of_sample(&sample(), &cfg).unwrap();
-            let mut peer = Peer::new(LinkIds::default());
+            let mut peer = Peer::new(LinkIds::default(), [0.5, 0.5]);
             let mut buf = [0; MAX_TELEMETRY_LEN];
             let n = peer.telemetry(&t, true, 40, &mut buf);
             let mut d = Decoder::new(LinkIds::default());
@@ -350,7 +397,7 @@ mod tests {
     #[test]
     fn heartbeats_come_at_one_hertz_and_say_the_mode() {
         let t = AutopilotTelemetry::of_sample(&sample(), &NavConfig::default()).unwrap();
-        let mut peer = Peer::new(LinkIds::default());
+        let mut peer = Peer::new(LinkIds::default(), [0.5, 0.5]);
         let mut d = Decoder::new(LinkIds::default());
         let mut buf = [0; MAX_TELEMETRY_LEN];
         let mut beats = 0;
@@ -437,32 +484,66 @@ mod tests {
         assert_eq!(i.request, ModeRequest::Engage);
         assert_eq!(s.counters().nav_missing, 1);
         assert!(!s.attitude_arrived());
-        // One step's telemetry: the sample and the mode are the autopilot's.
+        // One step's telemetry: the sample and the mode are the autopilot's, but its
+        // attitude time constants are not known yet: not ready, counted.
         let t = AutopilotTelemetry::of_sample(&sample(), &cfg.nav).unwrap();
-        let mut peer = Peer::new(cfg.ids);
+        let mut peer = Peer::new(cfg.ids, [0.5, 0.5]);
         let mut buf = [0; MAX_TELEMETRY_LEN];
         let n = peer.telemetry(&t, true, 20, &mut buf);
         buf[..n].iter().for_each(|&b| s.push(b, 20));
         assert!(s.attitude_arrived());
         let i = s.input(20, &uplink);
         assert!(!s.attitude_arrived(), "the barrier resets with each input");
-        assert!(i.autopilot_ready);
+        assert!(!i.autopilot_ready, "time constants unknown");
+        assert_eq!(s.counters().time_constants_unknown, 2, "both steps so far");
         assert!((i.nav.lon.v_mps - 1.3).abs() < 1e-4);
-        // 200 ms later the attitude is stale: invalid again, counted.
-        let i = s.input(220, &uplink);
-        assert!(i.nav.lon.theta_rad.is_nan());
-        assert_eq!(s.counters().nav_stale, 1);
-        // A setpoint that cannot be encoded is counted, not sent (the heartbeat is).
-        let bad = AttitudeSetpoint {
-            roll_rad: f32::NAN,
+        // The flight computer asks for them with its heartbeat; the autopilot answers.
+        let sp = AttitudeSetpoint {
+            roll_rad: 0.0,
             pitch_rad: 0.0,
             yaw_rad: 0.0,
             throttle: 0.5,
         };
         let mut out = [0; MAX_BURST_LEN];
-        let n = s.send(220, &Command::Attitude(bad), &mut out);
+        let n = s.send(20, &Command::Attitude(sp), &mut out);
         let read = read_setpoint(&out[..n], 0.0);
-        assert_eq!((read.frames, read.heartbeats, read.setpoint), (1, 1, None));
+        assert_eq!((read.frames, read.heartbeats), (4, 1));
+        assert_eq!(read.time_constants_asked, [true, true]);
+        peer.hear(&read);
+        let n = peer.telemetry(&t, true, 40, &mut buf);
+        let mut mismatched = Session::new(SessionConfig {
+            design: AttitudeLoopConfig {
+                pitch_time_constant_s: 0.4,
+                ..AttitudeLoopConfig::default()
+            },
+            ..cfg
+        });
+        for &b in &buf[..n] {
+            s.push(b, 40);
+            mismatched.push(b, 40);
+        }
+        assert!(s.input(40, &uplink).autopilot_ready, "0.5 s, as designed");
+        // Designed on 0.4 s, flown with 0.5 s: 25 % off, not ready, counted.
+        assert!(!mismatched.input(40, &uplink).autopilot_ready);
+        assert_eq!(mismatched.counters().time_constants_mismatch, 1);
+        // Asked for once only.
+        let n = s.send(40, &Command::Attitude(sp), &mut out);
+        assert_eq!(
+            read_setpoint(&out[..n], 0.0).time_constants_asked,
+            [false; 2]
+        );
+        // 200 ms later the attitude is stale: invalid again, counted.
+        let i = s.input(240, &uplink);
+        assert!(i.nav.lon.theta_rad.is_nan());
+        assert_eq!(s.counters().nav_stale, 1);
+        // A setpoint that cannot be encoded is counted, not sent.
+        let bad = AttitudeSetpoint {
+            roll_rad: f32::NAN,
+            ..sp
+        };
+        let n = s.send(240, &Command::Attitude(bad), &mut out);
+        let read = read_setpoint(&out[..n], 0.0);
+        assert_eq!((read.frames, read.heartbeats, read.setpoint), (0, 0, None));
         assert_eq!(s.counters().setpoints_refused, 1);
         s.count_tx_dropped();
         assert_eq!(s.counters().tx_dropped, 1);

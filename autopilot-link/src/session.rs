@@ -21,13 +21,21 @@
 //!   freezes its integrators and holds, then breaks away open loop, as with a stale link.
 //!   `autopilot_ready` is whether the autopilot's latest heartbeat, no older than
 //!   [`SessionConfig::heartbeat_max_age_ms`], reports a mode that flies setpoints
-//!   (ArduPlane GUIDED, PX4 OFFBOARD). The uplink's own navigation sample and
-//!   `autopilot_ready` are not used.
+//!   (ArduPlane GUIDED, PX4 OFFBOARD), **and** whether its pitch and roll attitude time
+//!   constants, read from its parameters, are those the attitude loop was designed on
+//!   ([`SessionConfig::design`]) within [`TIME_CONSTANT_TOLERANCE`]: the loop's poles are
+//!   placed on them, and flown against other values it strikes the basket or upsets the
+//!   aircraft (measured: `docs/conventions.md`, "Attitude-command inner loop"). A step not
+//!   ready for want of them is counted (unknown, or mismatched). The uplink's own
+//!   navigation sample and `autopilot_ready` are not used.
 //! - **The lockstep barrier.** A simulated autopilot sends its messages for a step ending
 //!   with `ATTITUDE` ([`crate::peer`]); [`Session::attitude_arrived`] says whether one has
 //!   arrived since the last input, so a lockstep schedule can wait for it (real autopilots
 //!   stream `ATTITUDE` at their own rate, and a free-running schedule does not wait).
-//! - **The output.** Our `HEARTBEAT` when due (1 Hz on the link clock) and the step's
+//! - **The output.** Our `HEARTBEAT` when due (1 Hz on the link clock), with it a
+//!   `PARAM_REQUEST_READ` for each attitude time constant not yet read once the autopilot's
+//!   heartbeat has said what it is (ArduPlane `PTCH2SRV_TCONST` / `RLL2SRV_TCONST`, PX4
+//!   `FW_P_TC` / `FW_R_TC`), and the step's
 //!   attitude setpoint as `SET_ATTITUDE_TARGET`, stamped `time_boot_ms` = the link clock. A
 //!   surface command (the surface loops do not fly through an autopilot) sends no setpoint;
 //!   a setpoint the encoder refuses is counted, not sent.
@@ -36,16 +44,24 @@
 //! refusal is counted in [`Session::counters`].
 
 use ibvs_core::ControllerInput;
-use ibvs_core::attitude::Command;
+use ibvs_core::attitude::{AttitudeLoopConfig, Command};
 use ibvs_core::nav::NavSample;
 
 use crate::{
     Counters, Decoder, Encoder, HEARTBEAT_DATA_LEN, LinkIds, MAX_SENT_FRAME_LEN, NavConfig,
-    Received,
+    PARAM_REQUEST_FRAME_LEN, Received, TimeConstantCheck,
 };
 
-/// Longest burst [`Session::send`] writes for one step, bytes: a heartbeat and a setpoint.
-pub const MAX_BURST_LEN: usize = HEARTBEAT_DATA_LEN + 12 + MAX_SENT_FRAME_LEN;
+/// Longest burst [`Session::send`] writes for one step, bytes: a heartbeat, two parameter
+/// requests and a setpoint.
+pub const MAX_BURST_LEN: usize =
+    HEARTBEAT_DATA_LEN + 12 + 2 * PARAM_REQUEST_FRAME_LEN + MAX_SENT_FRAME_LEN;
+
+/// How far the autopilot's attitude time constants may be from the design's, relative:
+/// 10 %, half the smallest difference measured to do harm (the autopilot 20 % faster than
+/// the design: nine upsets in 500 sorties of `autopilot-level2`; 20 % slower: none; 50 % and
+/// 100 % slower: 2 and 10 basket strikes).
+pub const TIME_CONSTANT_TOLERANCE: f32 = 0.1;
 
 /// The session's settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -57,6 +73,8 @@ pub struct SessionConfig {
     /// Oldest autopilot heartbeat whose mode is believed, ms. 2,500 ms: both autopilots send
     /// theirs at 1 Hz, so two may be lost before the mode is no longer known.
     pub heartbeat_max_age_ms: u32,
+    /// The attitude loop flown (its time constants are checked against the autopilot's).
+    pub design: AttitudeLoopConfig,
 }
 
 impl Default for SessionConfig {
@@ -65,6 +83,7 @@ impl Default for SessionConfig {
             ids: LinkIds::default(),
             nav: NavConfig::default(),
             heartbeat_max_age_ms: 2_500,
+            design: AttitudeLoopConfig::default(),
         }
     }
 }
@@ -79,6 +98,8 @@ pub struct Session {
     setpoints_refused: u32,
     tx_dropped: u32,
     rx_errors: u32,
+    time_constants_unknown: u32,
+    time_constants_mismatch: u32,
 }
 
 impl Session {
@@ -92,7 +113,14 @@ impl Session {
             setpoints_refused: 0,
             tx_dropped: 0,
             rx_errors: 0,
+            time_constants_unknown: 0,
+            time_constants_mismatch: 0,
         }
+    }
+
+    /// The attitude loop now flown (after a configuration change).
+    pub fn set_design(&mut self, design: AttitudeLoopConfig) {
+        self.cfg.design = design;
     }
 
     /// Takes one byte from the autopilot, arrived at `now_ms`.
@@ -114,10 +142,23 @@ impl Session {
             Ok(fix) => fix.sample,
             Err(_) => NavSample::from_array([f32::NAN; 12]),
         };
-        let autopilot_ready = self
+        let mode = self
             .decoder
             .autopilot(now_ms)
             .accepts_setpoints(self.cfg.heartbeat_max_age_ms);
+        let time_constants = self
+            .decoder
+            .attitude_time_constants()
+            .check(&self.cfg.design, TIME_CONSTANT_TOLERANCE);
+        let c = match time_constants {
+            TimeConstantCheck::Match => None,
+            TimeConstantCheck::Unknown => Some(&mut self.time_constants_unknown),
+            TimeConstantCheck::Mismatch => Some(&mut self.time_constants_mismatch),
+        };
+        if let Some(c) = c {
+            *c = c.saturating_add(1);
+        }
+        let autopilot_ready = mode && time_constants == TimeConstantCheck::Match;
         ControllerInput {
             nav,
             autopilot_ready,
@@ -129,11 +170,24 @@ impl Session {
     /// into `buf`: the bytes written (a heartbeat when due, the setpoint).
     pub fn send(&mut self, now_ms: u32, command: &Command, buf: &mut [u8; MAX_BURST_LEN]) -> usize {
         let mut n = 0;
-        if self.encoder.heartbeat_due(now_ms)
-            && let Some(rest) = buf.get_mut(n..)
-        {
-            // The buffer holds a heartbeat and a setpoint: never refused.
-            n += self.encoder.heartbeat(rest).unwrap_or(0);
+        if self.encoder.heartbeat_due(now_ms) {
+            // The buffer holds a heartbeat, two requests and a setpoint: never refused.
+            if let Some(rest) = buf.get_mut(n..) {
+                n += self.encoder.heartbeat(rest).unwrap_or(0);
+            }
+            // The time constants not read yet, once the autopilot has said what it is.
+            let have = self.decoder.attitude_time_constants();
+            if let Some(kind) = self.decoder.autopilot_kind() {
+                let [pitch, roll] = kind.time_constant_params();
+                for (name, missing) in [
+                    (pitch, have.pitch_s.is_none()),
+                    (roll, have.roll_s.is_none()),
+                ] {
+                    if missing && let Some(rest) = buf.get_mut(n..) {
+                        n += self.encoder.param_request_read(name, rest).unwrap_or(0);
+                    }
+                }
+            }
         }
         if let Command::Attitude(sp) = command
             && let Some(rest) = buf.get_mut(n..)
@@ -166,6 +220,8 @@ impl Session {
             setpoints_refused: self.setpoints_refused,
             tx_dropped: self.tx_dropped,
             rx_errors: self.rx_errors,
+            time_constants_unknown: self.time_constants_unknown,
+            time_constants_mismatch: self.time_constants_mismatch,
             ..*self.decoder.counters()
         }
     }

@@ -496,7 +496,10 @@ impl App {
             control_stack_max: 0,
             pending: [None; 2],
             buf: [0; MAX_FRAME_LEN],
-            autopilot: Session::new(SessionConfig::default()),
+            autopilot: Session::new(SessionConfig {
+                design: cfg.attitude,
+                ..SessionConfig::default()
+            }),
             autopilot_ms: 0,
             autopilot_burst: [0; MAX_BURST_LEN],
             autopilot_len: 0,
@@ -761,6 +764,7 @@ impl App {
             Ok(()) => match self.controller.reconfigure(cfg) {
                 Ok(()) => {
                     self.config_id = config_id(&cfg);
+                    self.autopilot.set_design(cfg.attitude);
                     self.link.config_applied = self.link.config_applied.saturating_add(1);
                     // Answered once the board has stored it (`App::persisted`).
                     self.to_persist = Some(cfg);
@@ -2171,13 +2175,14 @@ mod tests {
         board.frames();
         let mut twin = Controller::new(cfg).expect("config");
         let mut twin_link = Session::new(SessionConfig::default());
-        let mut peer = Peer::new(LinkIds::default());
+        let mut peer = Peer::new(LinkIds::default(), [0.5, 0.5]);
         let mut engaged = false;
         for k in 0..40u32 {
-            let request = if k == 0 {
-                ModeRequest::Engage
-            } else {
+            // Engage asked until flown (the time constants come in the second step).
+            let request = if engaged {
                 ModeRequest::None
+            } else {
+                ModeRequest::Engage
             };
             let i = input(k + 1, request);
             let mav = autopilot_frames(&mut peer, &i, k, true);
@@ -2200,6 +2205,9 @@ mod tests {
             let read = read_setpoint(&board.ap_tx, 0.0);
             assert_eq!(read.time_boot_ms, Some(k * PERIOD_MS));
             assert_eq!(read.heartbeats, u32::from(k % 50 == 0), "1 Hz");
+            // The attitude time constants asked for with the first heartbeat only.
+            assert_eq!(read.time_constants_asked, [k == 0; 2]);
+            peer.hear(&read);
             board.ap_tx.clear();
             engaged |= out.mode != Mode::Standby;
             assert!(matches!(out.command, Command::Attitude(_)));
@@ -2209,8 +2217,8 @@ mod tests {
         assert_eq!(t.autopilot, twin_link.counters());
         assert_eq!(
             t.autopilot.frames_used,
-            40 * 4 + 1,
-            "four a step, a heartbeat"
+            40 * 4 + 1 + 2,
+            "four a step, a heartbeat, the two time constants"
         );
         assert_eq!(t.autopilot.nav_missing + t.autopilot.nav_stale, 0);
     }
@@ -2223,7 +2231,7 @@ mod tests {
         let mut board: Mock = Mock::default();
         app.boot(&mut board);
         board.frames();
-        let mut peer = Peer::new(LinkIds::default());
+        let mut peer = Peer::new(LinkIds::default(), [0.5, 0.5]);
         // Measurement frames and the autopilot's telemetry each period, in FBWA: the engage
         // is refused (the autopilot does not follow setpoints).
         for k in 1..=5u32 {
@@ -2235,6 +2243,7 @@ mod tests {
                 .extend(autopilot_frames(&mut peer, &i, k, false));
             board.periods = 1;
             app.poll(&mut board);
+            peer.hear(&read_setpoint(&core::mem::take(&mut board.ap_tx), 0.0));
             let f = board.frames();
             assert_eq!(f[0].output.mode, Mode::Standby, "period {k}: not in GUIDED");
             assert!(f[0].output.status.contains(StatusFlags::ENGAGE_REFUSED));
@@ -2247,6 +2256,7 @@ mod tests {
             board.ap.rx.extend(autopilot_frames(&mut peer, &i, k, true));
             board.periods = 1;
             app.poll(&mut board);
+            peer.hear(&read_setpoint(&core::mem::take(&mut board.ap_tx), 0.0));
             mode = board.frames()[0].output.mode;
             if mode != Mode::Standby {
                 break;

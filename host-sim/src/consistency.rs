@@ -117,8 +117,8 @@ impl FlightComputer for Recorder {
         out
     }
 
-    fn through_autopilot(&self) -> bool {
-        self.ctl.through_autopilot()
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
+        self.ctl.autopilot_design()
     }
 
     fn probe_tip_image(&self) -> Option<[f32; 2]> {

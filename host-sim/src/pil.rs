@@ -1458,8 +1458,8 @@ impl FlightComputer for PilFlightComputer {
     }
 
     /// From the configuration written.
-    fn through_autopilot(&self) -> bool {
-        self.config.inner_loop == InnerLoop::Attitude
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
+        (self.config.inner_loop == InnerLoop::Attitude).then_some(self.config.attitude)
     }
 
     /// The firmware runs its own side of the link: the simulator's session is not used.

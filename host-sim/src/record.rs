@@ -273,10 +273,10 @@ impl FlightComputer for Tap<'_> {
         }
     }
 
-    fn through_autopilot(&self) -> bool {
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
         match &self.inner {
-            Inner::Any(fc) => fc.through_autopilot(),
-            Inner::Pil(fc) => fc.through_autopilot(),
+            Inner::Any(fc) => fc.autopilot_design(),
+            Inner::Pil(fc) => fc.autopilot_design(),
         }
     }
 

@@ -48,7 +48,7 @@ use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
 use autopilot_link::peer::{AutopilotTelemetry, MAX_TELEMETRY_LEN, Peer, read_setpoint};
 use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
-use ibvs_core::attitude::{Command, InnerLoop};
+use ibvs_core::attitude::{AttitudeLoopConfig, Command, InnerLoop};
 use ibvs_core::estimator::TIP_IN_VIEW_MIN_DEPTH_M;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
@@ -58,10 +58,11 @@ pub trait FlightComputer {
     /// Runs one control step.
     fn step(&mut self, input: &ControllerInput) -> ControllerOutput;
 
-    /// Whether it flies through the autopilot (the attitude-command inner loop): then the
-    /// run calls [`FlightComputer::step_through_autopilot`] instead of
-    /// [`FlightComputer::step`].
-    fn through_autopilot(&self) -> bool;
+    /// The attitude-command inner loop it flies, when it flies through the autopilot: then
+    /// the run calls [`FlightComputer::step_through_autopilot`] instead of
+    /// [`FlightComputer::step`] (and the link checks the autopilot's attitude time
+    /// constants against this design's).
+    fn autopilot_design(&self) -> Option<AttitudeLoopConfig>;
 
     /// One control step through the autopilot: the autopilot's MAVLink bytes of the step in,
     /// the flight computer's out. The default is the flight computer in process: `link.session`
@@ -127,8 +128,8 @@ impl FlightComputer for Controller {
         output
     }
 
-    fn through_autopilot(&self) -> bool {
-        self.config().inner_loop == InnerLoop::Attitude
+    fn autopilot_design(&self) -> Option<AttitudeLoopConfig> {
+        (self.config().inner_loop == InnerLoop::Attitude).then_some(self.config().attitude)
     }
 
     /// After every step.
@@ -729,9 +730,17 @@ pub fn run_observed(
     let mut prev_tip = tip(&x, 0.0);
     // Through the autopilot: its end of the MAVLink link, and the flight computer's in
     // process (unused by the firmware in the loop, which runs its own).
-    let through_autopilot = fc.through_autopilot();
-    let link_cfg = SessionConfig::default();
-    let mut autopilot_end = Peer::new(link_cfg.ids);
+    let design = fc.autopilot_design();
+    let through_autopilot = design.is_some();
+    let link_cfg = SessionConfig {
+        design: design.unwrap_or_default(),
+        ..SessionConfig::default()
+    };
+    let time_constants_s = [
+        s.autopilot.pitch_time_constant_s as f32,
+        s.autopilot.roll_time_constant_s as f32,
+    ];
+    let mut autopilot_end = Peer::new(link_cfg.ids, time_constants_s);
     let mut session = Session::new(link_cfg);
 
     for k in 0..steps {
@@ -791,6 +800,7 @@ pub fn run_observed(
                 to_autopilot: &mut to_autopilot,
             });
             let read = read_setpoint(&to_autopilot, link_cfg.nav.track_rad);
+            autopilot_end.hear(&read);
             (output, read.setpoint)
         } else {
             (fc.step(&input), None)

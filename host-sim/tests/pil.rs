@@ -14,7 +14,7 @@ use host_sim::montecarlo::{self, CampaignComputer, RunOutcome, RunRecord};
 use host_sim::pil::{PilFlightComputer, firmware_elf};
 use host_sim::scenario::PRESETS;
 use host_sim::scenario::ScenarioFile;
-use host_sim::sim::{Outcome, Run, Scenario, run};
+use host_sim::sim::{AutopilotStep, FlightComputer, Outcome, Run, Scenario, run};
 use ibvs_core::attitude::{Command, InnerLoop};
 use ibvs_core::wire::{ClockSource, CostUnit, LinkStatus, ResetCause, config_id};
 use ibvs_core::{Controller, ControllerConfig, ControllerInput, Mode, OuterLaw, Procedure};
@@ -188,6 +188,33 @@ fn mavlink_check(mode: &str, a: &std::path::Path, b: &std::path::Path) -> std::p
         .expect("python3 runs")
 }
 
+/// A flight computer whose MAVLink bytes to the autopilot are kept, step after step.
+struct Taped<'a, F: FlightComputer + ?Sized> {
+    fc: &'a mut F,
+    to_autopilot: Vec<u8>,
+}
+
+impl<F: FlightComputer + ?Sized> FlightComputer for Taped<'_, F> {
+    fn step(&mut self, input: &ControllerInput) -> ibvs_core::ControllerOutput {
+        self.fc.step(input)
+    }
+
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
+        self.fc.autopilot_design()
+    }
+
+    fn step_through_autopilot(&mut self, link: AutopilotStep<'_>) -> ibvs_core::ControllerOutput {
+        let mut mine = Vec::new();
+        let out = self.fc.step_through_autopilot(AutopilotStep {
+            to_autopilot: &mut mine,
+            ..link
+        });
+        self.to_autopilot.extend_from_slice(&mine);
+        link.to_autopilot.extend_from_slice(&mine);
+        out
+    }
+}
+
 /// Docking through the autopilot over MAVLink: the firmware reads the simulated autopilot's
 /// telemetry on its second serial port (USART2) and sends its heartbeat and setpoints there.
 /// The run equals the in-process one bit for bit (every output; every MAVLink byte the
@@ -202,7 +229,12 @@ fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_re
     let (scenario, cfg) = (file.scenario(), file.controller_config());
     assert_eq!(cfg.inner_loop, InnerLoop::Attitude);
     let mut controller = Controller::new(cfg).expect("valid config");
-    let reference = run(&scenario, &mut controller).expect("in-process run");
+    let mut in_process = Taped {
+        fc: &mut controller,
+        to_autopilot: Vec::new(),
+    };
+    let reference = run(&scenario, &mut in_process).expect("in-process run");
+    let expected_bytes = in_process.to_autopilot;
     assert_eq!(
         reference.summary.outcome,
         Outcome::Docked,
@@ -226,16 +258,11 @@ fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_re
     }
     assert_eq!(got.summary.outcome, Outcome::Docked);
 
-    // The firmware's MAVLink bytes: the in-process session's for the same outputs.
-    let mut session = Session::new(SessionConfig::default());
-    let mut expected_bytes = Vec::new();
+    // The firmware's MAVLink stream, message by message, for pymavlink: from the outputs.
     let mut expected = Vec::new();
     let mut seq = 0u8;
     for (k, sample) in reference.samples.iter().enumerate() {
         let now = 20 * k as u32;
-        let mut burst = [0u8; MAX_BURST_LEN];
-        let n = session.send(now, &sample.output.command, &mut burst);
-        expected_bytes.extend_from_slice(&burst[..n]);
         let header = |name: &str, seq: u8, fields: Value| {
             json!({"name": name, "seq": seq, "src_system": 1, "src_component": 191,
                    "fields": fields})
@@ -248,6 +275,19 @@ fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_re
                        "system_status": 4, "mavlink_version": 3}),
             ));
             seq = seq.wrapping_add(1);
+        }
+        // With the first heartbeat (the autopilot's has said it is ArduPlane), the two
+        // attitude time constants are asked for; answered in the next step's telemetry.
+        if k == 0 {
+            for name in ["PTCH2SRV_TCONST", "RLL2SRV_TCONST"] {
+                expected.push(header(
+                    "PARAM_REQUEST_READ",
+                    seq,
+                    json!({"target_system": 1, "target_component": 1, "param_id": name,
+                           "param_index": -1}),
+                ));
+                seq = seq.wrapping_add(1);
+            }
         }
         let Command::Attitude(sp) = sample.output.command else {
             panic!("step {k}: not an attitude command")
@@ -272,7 +312,12 @@ fn pil_flies_through_the_autopilot_over_mavlink_like_in_process_and_pymavlink_re
     let steps = reference.samples.len() as u32;
     let heartbeats = steps.div_ceil(50);
     let a = telemetry.autopilot;
-    assert_eq!(a.frames_used, 4 * steps + heartbeats, "{a:?}");
+    assert_eq!(a.frames_used, 4 * steps + heartbeats + 2, "{a:?}");
+    assert_eq!(
+        (a.time_constants_unknown, a.time_constants_mismatch),
+        (1, 0),
+        "{a:?}"
+    );
     assert_eq!(
         (
             a.noise_bytes,
@@ -327,7 +372,18 @@ fn pil_flies_on_an_autopilot_stream_pymavlink_wrote_like_in_process() {
     let eas = f64::from(trim.speed_mps) * sigma.sqrt();
     let mut messages = vec![json!({"name": "HEARTBEAT", "fields": {"type": 1,
         "autopilot": 3, "base_mode": 217, "custom_mode": 15, "system_status": 4}})];
+    // The frames of each step: the heartbeat with the first, the answers to the firmware's
+    // requests for the attitude time constants with the second.
+    let mut per_step = Vec::new();
     for k in 0..STEPS {
+        let before = messages.len();
+        if k == 1 {
+            for (name, value) in [("PTCH2SRV_TCONST", 0.5), ("RLL2SRV_TCONST", 0.5)] {
+                messages.push(json!({"name": "PARAM_VALUE", "fields": {"param_id": name,
+                    "param_value": value, "param_type": 9, "param_count": 1,
+                    "param_index": 65535}}));
+            }
+        }
         let (t, ms) = (f64::from(k) * 0.02, 20 * k);
         let (roll, pitch) = (
             0.05 * (2.0 * t).sin(),
@@ -345,6 +401,7 @@ fn pil_flies_on_an_autopilot_stream_pymavlink_wrote_like_in_process() {
                 "pitch": pitch, "yaw": 0.002 * t, "rollspeed": 0.1 * (2.0 * t).cos(),
                 "pitchspeed": 0.01 * t.cos(), "yawspeed": 0.002}}),
         ]);
+        per_step.push(messages.len() - before + usize::from(k == 0));
     }
     let dir = std::env::temp_dir().join(format!("ibvs-pil-pymavlink-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -369,7 +426,8 @@ fn pil_flies_on_an_autopilot_stream_pymavlink_wrote_like_in_process() {
         rest = tail;
     }
     assert!(rest.is_empty());
-    assert_eq!(frames.len(), 1 + 4 * STEPS as usize);
+    assert_eq!(frames.len(), 1 + 2 + 4 * STEPS as usize);
+    assert_eq!(per_step.iter().sum::<usize>(), frames.len());
 
     let elf = firmware_elf().expect("firmware ELF");
     let mut pil = PilFlightComputer::spawn(&elf).expect("QEMU with the firmware");
@@ -378,9 +436,8 @@ fn pil_flies_on_an_autopilot_stream_pymavlink_wrote_like_in_process() {
     let mut session = Session::new(SessionConfig::default());
     let mut engaged = false;
     for k in 0..STEPS as usize {
-        // The heartbeat rides with the first step's frames.
-        let first = if k == 0 { 0 } else { 1 + 4 * k };
-        let step_bytes: Vec<u8> = frames[first..1 + 4 * (k + 1)].concat();
+        let first: usize = per_step[..k].iter().sum();
+        let step_bytes: Vec<u8> = frames[first..first + per_step[k]].concat();
         let uplink = ControllerInput {
             measurement: flown.samples[k].measurement,
             nav: ibvs_core::nav::NavSample::default(),

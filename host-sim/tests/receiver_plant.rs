@@ -136,8 +136,8 @@ impl FlightComputer for Recorder {
         ControllerOutput::default()
     }
 
-    fn through_autopilot(&self) -> bool {
-        false
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
+        None
     }
 }
 

@@ -190,8 +190,8 @@ impl FlightComputer for Recorder {
         self.controller.step(input)
     }
 
-    fn through_autopilot(&self) -> bool {
-        self.controller.through_autopilot()
+    fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
+        self.controller.autopilot_design()
     }
 
     fn step_through_autopilot(&mut self, link: sim::AutopilotStep<'_>) -> ControllerOutput {

@@ -135,3 +135,33 @@ fn the_autopilot_leaving_guided_is_a_named_breakaway() {
         );
     }
 }
+
+/// The flight computer reads the autopilot's attitude time constants over MAVLink and flies
+/// only an autopilot whose loops are those it was designed on (within 10 %): with the
+/// simulated ArduPlane's roll loop at 0.7 s (`RLL2SRV_TCONST`; the design's 0.5 s) the
+/// engage is refused every step and the receiver never leaves its start, while at 0.54 s
+/// (8 % off) it docks. Judged on the truth: docked or not, and no hazard either way.
+#[test]
+fn an_autopilot_whose_time_constants_are_not_the_designs_is_not_flown() {
+    use ibvs_core::Mode;
+    for (roll_s, docks) in [(0.7, false), (0.54, true)] {
+        let mut s = sim::Scenario::ideal();
+        s.autopilot.roll_time_constant_s = roll_s;
+        s.duration_s = 30.0;
+        let mut c = Controller::new(through_the_autopilot()).expect("valid configuration");
+        let run = sim::run(&s, &mut c).expect("scenario runs");
+        assert_eq!(run.verdict.docked(), docks, "{roll_s} s: {:?}", run.summary);
+        assert!(
+            run.verdict.hazards.is_empty(),
+            "{roll_s} s: {:?}",
+            run.verdict.hazards
+        );
+        if !docks {
+            // What the controller did, for the reader: it never engaged.
+            assert!(
+                run.samples.iter().all(|x| x.output.mode == Mode::Standby),
+                "{roll_s} s: engaged"
+            );
+        }
+    }
+}

@@ -31,15 +31,15 @@ const _: () = assert!(crate::app::RX_CHUNK_LEN >= RX_QUEUE_LEN);
 
 /// Transmit queue capacity, bytes: the largest frame the link can carry
 /// ([`ibvs_core::wire::MAX_FRAME_LEN`], 704; a configuration report is at most 655), the
-/// largest command frame (138) and the largest telemetry frame (349) behind it, so that a
+/// largest command frame (138) and the largest telemetry frame (359) behind it, so that a
 /// configuration report followed by the period's frames is never refused (a power of two:
-/// 2,048). At 921,600 baud those 1,191 bytes drain in 12.9 ms, less than one control period,
+/// 2,048). At 921,600 baud those 1,201 bytes drain in 13.0 ms, less than one control period,
 /// so in flight (one command frame per period, 1.5 ms on the wire) it never holds more than
 /// that period's frames; a refused frame means the wire is slower than that (counted,
 /// `LinkCounters::tx_dropped`).
 pub const TX_QUEUE_LEN: usize = 2048;
 
-const _: () = assert!(TX_QUEUE_LEN >= ibvs_core::wire::MAX_FRAME_LEN + 138 + 349);
+const _: () = assert!(TX_QUEUE_LEN >= ibvs_core::wire::MAX_FRAME_LEN + 138 + 359);
 
 super::usart::serial_port!(USART1);
 

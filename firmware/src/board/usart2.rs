@@ -14,14 +14,15 @@
 //! Invariants: those of [`super::usart`].
 
 /// Receive queue capacity, bytes: two control periods of the autopilot's stream as the
-/// simulator sends it (a heartbeat, `LOCAL_POSITION_NED`, `VFR_HUD`, `AOA_SSA` and
-/// `ATTITUDE`: 172 bytes a period), rounded up to a power of two. The main loop drains it
+/// simulator sends it at its longest (a heartbeat, two `PARAM_VALUE`s, `LOCAL_POSITION_NED`,
+/// `VFR_HUD`, `AOA_SSA` and `ATTITUDE`: 235 bytes), rounded up to a power of two. The main loop drains it
 /// every pass; a byte that finds it full is counted (`AutopilotLinkCounters::rx_errors`).
 pub const RX_QUEUE_LEN: usize = 512;
 
-/// Transmit queue capacity, bytes: a period's burst (a heartbeat and a setpoint, 72 bytes)
-/// three times over, and more; at 460,800 baud it drains in 5.6 ms.
-pub const TX_QUEUE_LEN: usize = 256;
+/// Transmit queue capacity, bytes: a period's largest burst (a heartbeat, two parameter
+/// requests and a setpoint, 136 bytes) three times over, rounded up to a power of two; at
+/// 460,800 baud it drains in 11 ms.
+pub const TX_QUEUE_LEN: usize = 512;
 
 const _: () = assert!(autopilot_link::session::MAX_BURST_LEN * 3 <= TX_QUEUE_LEN);
 const _: () = assert!(
