@@ -655,8 +655,17 @@ impl ModeMachine {
             // distance (the gate committed it where a no-go could no longer stop short of
             // the plane): backing off now would carry the probe through the basket's rim.
             // The capture goes on, and the abort breaks away at its end: at contact (the
-            // disconnect) or at a no-go.
-            if limits.procedure == Procedure::Refuelling && self.mode == Mode::Terminal {
+            // disconnect) or at a no-go. In rough air (the drogue's activity above the
+            // rough-air switch) the capture itself strikes often, so there the call is
+            // deferred only within the forward loop's lag of the plane (`closing *
+            // forward_lag_s`: nothing commanded takes effect before the plane); further
+            // out the breakaway's turn down and away clears the basket.
+            let r = &inp.refuel;
+            let within_lag = r.estimate.depth_m < r.closing_mps * refuel.forward_lag_s;
+            if limits.procedure == Procedure::Refuelling
+                && self.mode == Mode::Terminal
+                && (within_lag || !procedure::rough_air(r.drogue_speed_rms_mps, refuel))
+            {
                 self.abort_pending = true;
             } else {
                 self.break_away(BreakawayReason::Abort);
@@ -1648,6 +1657,28 @@ mod tests {
             (m.mode(), m.breakaway_reason()),
             (Mode::Breakaway, Some(BreakawayReason::Abort))
         );
+        // In rough air the capture defers the call only within the forward loop's lag of the
+        // plane (closing at 1 m/s: 1.7 m); further out it breaks away at once.
+        let rough_abort = |depth_m: f32, rms: f32| {
+            let mut inp = abort(depth_m);
+            inp.refuel.drogue_speed_rms_mps = rms;
+            inp
+        };
+        let lag_m = rc.forward_lag_s; // at 1 m/s
+        let rough = rc.rough_air_drogue_speed_mps + 0.1;
+        for (depth_m, rms, deferred) in [
+            (lag_m + 0.1, rough, false),
+            (lag_m - 0.1, rough, true),
+            (lag_m + 0.1, rc.rough_air_drogue_speed_mps, true),
+        ] {
+            let (mut m, rc, lim) = refuelling_capture();
+            m.advance(&rough_abort(depth_m, rms), &cfg, &rc, TS, &lim);
+            assert_eq!(
+                (m.mode() == Mode::Terminal, m.abort_pending()),
+                (deferred, deferred),
+                "{depth_m} m, {rms} m/s"
+            );
+        }
     }
 
     #[test]

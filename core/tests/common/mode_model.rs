@@ -739,12 +739,19 @@ impl Model {
     /// The rows both tables start with (a reset, an abort, the navigation lost, outside the
     /// docking envelope, the autopilot not following), `engaged` as the procedure counts it: `Some(refused)` when one of
     /// them decided the step.
-    fn common_rows(&mut self, input: &ControllerInput, engaged: bool) -> Option<bool> {
-        // The refuelling capture defers an abort to its end (the core's `ModeMachine`).
+    fn common_rows(
+        &mut self,
+        input: &ControllerInput,
+        engaged: bool,
+        capture_defers: bool,
+    ) -> Option<bool> {
+        // The refuelling capture defers an abort to its end (the core's `ModeMachine`) when
+        // `capture_defers`: in smooth air, or within the forward loop's lag of the plane.
         let defer = engaged
             && input.request == ModeRequest::Abort
             && self.cfg.procedure == Procedure::Refuelling
-            && self.mode == Mode::Terminal;
+            && self.mode == Mode::Terminal
+            && capture_defers;
         if defer && input.request != ModeRequest::Reset {
             self.abort_pending = true;
         }
@@ -820,7 +827,7 @@ impl Model {
         let brk = |m: &mut Self, r| m.break_away(r);
         let camera = f3(self.cfg.camera.position_body_m);
         let mut refused = false;
-        if let Some(r) = self.common_rows(input, engaged) {
+        if let Some(r) = self.common_rows(input, engaged, true) {
             refused = r;
         } else if matches!(before, Mode::Approach | Mode::Terminal)
             && o.gt(
@@ -952,7 +959,9 @@ impl Model {
             }
         };
         let before = self.mode;
-        if let Some(r) = self.common_rows(input, engaged) {
+        let capture_defers = o.lt(depth, closing * f(rc.forward_lag_s))
+            || !o.gt(rms, f(rc.rough_air_drogue_speed_mps));
+        if let Some(r) = self.common_rows(input, engaged, capture_defers) {
             refused = r;
         } else if matches!(
             self.mode,
