@@ -871,7 +871,7 @@ impl App {
     ) -> (Option<usize>, Option<Event>) {
         self.latest = Some(up);
         let input = self.input_of::<C>(&up.input);
-        let decode = decode.saturating_add(core::mem::take(&mut self.autopilot_decode));
+        let decode = decode.saturating_add(self.take_autopilot_decode());
         let (d, event) = self.step::<C>(&input, Some(up.seq), 0, decode);
         self.autopilot_ms = self.autopilot_ms.wrapping_add(PERIOD_MS);
         let len = self.encode::<C>(d).map(<[u8]>::len);
@@ -897,6 +897,14 @@ impl App {
         let spent = C::now().wrapping_sub(t0);
         self.autopilot_decode = self.autopilot_decode.saturating_add(spent);
         input
+    }
+
+    /// The autopilot link's decoding since the last step, for the step's `Cost::decode`
+    /// through the autopilot; 0 otherwise (bytes from an autopilot the configuration does
+    /// not fly through are decoded and counted, not charged to the step).
+    fn take_autopilot_decode(&mut self) -> u32 {
+        let spent = core::mem::take(&mut self.autopilot_decode);
+        if self.through_autopilot() { spent } else { 0 }
     }
 
     /// Lockstep through the autopilot: the waiting measurement frame's step once the
@@ -937,7 +945,7 @@ impl App {
         };
         let mut input = self.input_of::<C>(&latest.input);
         let mut status = 0;
-        let mut decode = core::mem::take(&mut self.autopilot_decode);
+        let mut decode = self.take_autopilot_decode();
         let mut event = None;
         if self.fresh {
             self.fresh = false;
