@@ -7,12 +7,18 @@
 //! simulator's in-process flight computer both use it, so that processor-in-the-loop runs
 //! can be compared with in-process ones bit for bit.
 //!
+//! Layout: this module is the codec (the [`Encoder`] of our frames, the [`Decoder`] of the
+//! autopilot's, the navigation sample built from them); [`session`] is what one control step
+//! takes from the link and gives to it (the firmware's application and the simulator's
+//! in-process flight computer call only it); [`peer`] is the autopilot's end, for the
+//! simulator and the tests (never in the flight image).
+//!
 //! The messages are the `mavlink` crate's (rust-mavlink, `no_std`, its `ardupilotmega`
 //! dialect: `common` plus ArduPilot's messages, because `AOA_SSA` is ArduPilot's): their
 //! payload layout, CRC extra bytes and CRC are the crate's. This module finds frame
 //! boundaries byte by byte (so that it can count what it drops), asks the crate to check
 //! each frame's CRC and to decode the payloads it uses, and encodes only the three messages
-//! it sends.
+//! it sends (`peer` encodes the autopilot's).
 //!
 //! # Sent (flight computer to autopilot), [`Encoder`]
 //!
