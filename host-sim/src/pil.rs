@@ -16,8 +16,13 @@
 //!
 //! [`PilLink`] spawns `qemu-system-arm -machine netduinoplus2 -cpu cortex-m4 -icount shift=0
 //! -display none -monitor none -semihosting-config enable=on,target=native,arg=firmware
-//! -serial unix:SOCKET -kernel ELF`. The link has its own chardev, a unix socket this process
-//! listens on; QEMU's stdout and stderr (the firmware's semihosting log) go to a log file
+//! -serial unix:SOCKET -serial unix:AUTOPILOT_SOCKET -kernel ELF`. The link has its own
+//! chardev, a unix socket this process listens on; so has the firmware's autopilot port
+//! (USART2, MAVLink 2): through the autopilot (the attitude-command loop,
+//! [`PilFlightComputer::try_step_through_autopilot`]) each step writes the simulated
+//! autopilot's frames there before the measurement frame, and reads the firmware's MAVLink
+//! frames up to its `SET_ATTITUDE_TARGET` after the command frame (every byte kept both ways:
+//! [`PilLink::autopilot_sent`], [`PilLink::autopilot_received`]); QEMU's stdout and stderr (the firmware's semihosting log) go to a log file
 //! beside it ([`PilLink::log_path`]). `-icount shift=0` makes the firmware's TIM2 an exact
 //! instruction counter, so the step costs it reports are deterministic.
 //!
