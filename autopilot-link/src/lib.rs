@@ -327,8 +327,13 @@ impl Encoder {
         self.frame(&data, buf)
     }
 
-    /// One MAVLink 2 frame of `data` from our ids into `buf`, then the next sequence number.
-    fn frame<D: MessageData>(&mut self, data: &D, buf: &mut [u8]) -> Result<usize, EncodeError> {
+    /// One MAVLink 2 frame of `data` from our ids into `buf`, then the next sequence number
+    /// (also the simulated autopilot's frames, `peer`).
+    pub(crate) fn frame<D: MessageData>(
+        &mut self,
+        data: &D,
+        buf: &mut [u8],
+    ) -> Result<usize, EncodeError> {
         let header = MavHeader {
             system_id: u32::from(self.ids.system_id),
             component_id: self.ids.component_id,

@@ -30,13 +30,13 @@ use ::mavlink::dialects::ardupilotmega::{
     MavModeFlag, MavParamType, MavState, MavType, PARAM_VALUE_DATA, VFR_HUD_DATA,
 };
 use ::mavlink::types::CharArray;
-use ::mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message, MessageData, consts};
+use ::mavlink::{MAVLinkV2MessageRaw, MavlinkVersion, Message, MessageData, consts};
 use ibvs_core::attitude::AttitudeSetpoint;
 use ibvs_core::nav::NavSample;
 use ibvs_core::schedule::{self, ScheduleError};
 
 use crate::{
-    ARDUPLANE_GUIDED, ARDUPLANE_PITCH_TC, ARDUPLANE_ROLL_TC, Axis, LinkIds, NavConfig,
+    ARDUPLANE_GUIDED, ARDUPLANE_PITCH_TC, ARDUPLANE_ROLL_TC, Axis, Encoder, LinkIds, NavConfig,
     isa_density_ratio, param_name, sin_cos, wrap_pi,
 };
 
@@ -104,9 +104,9 @@ impl AutopilotTelemetry {
 /// A simulated ArduPlane's end of the link.
 #[derive(Debug, Clone)]
 pub struct Peer {
-    ids: LinkIds,
-    sequence: u8,
-    last_heartbeat_ms: Option<u32>,
+    /// Frames from the autopilot's ids, its sequence and heartbeat period: the flight
+    /// computer's encoder with the roles swapped.
+    encoder: Encoder,
     /// Its pitch and roll attitude time constants, s (`PTCH2SRV_TCONST`, `RLL2SRV_TCONST`).
     time_constants_s: [f32; 2],
     /// Which of them the flight computer asked for since the last answer.
@@ -118,9 +118,11 @@ impl Peer {
     /// time constants `time_constants_s`, its first frame numbered 0.
     pub const fn new(ids: LinkIds, time_constants_s: [f32; 2]) -> Self {
         Self {
-            ids,
-            sequence: 0,
-            last_heartbeat_ms: None,
+            encoder: Encoder::new(LinkIds {
+                system_id: ids.autopilot_system,
+                component_id: ids.autopilot_component,
+                ..ids
+            }),
             time_constants_s,
             asked: [false; 2],
         }
@@ -144,11 +146,7 @@ impl Peer {
         buf: &mut [u8; MAX_TELEMETRY_LEN],
     ) -> usize {
         let mut n = 0;
-        let due = self
-            .last_heartbeat_ms
-            .is_none_or(|last| time_boot_ms.wrapping_sub(last) >= crate::HEARTBEAT_PERIOD_MS);
-        if due {
-            self.last_heartbeat_ms = Some(time_boot_ms);
+        if self.encoder.heartbeat_due(time_boot_ms) {
             let hb = HEARTBEAT_DATA {
                 custom_mode: if guided {
                     ARDUPLANE_GUIDED
@@ -224,22 +222,7 @@ impl Peer {
     /// One frame of `data` into `buf`: its length (0 if `buf` is too short, which the burst
     /// buffer's length rules out).
     fn frame<D: MessageData>(&mut self, data: &D, buf: &mut [u8]) -> usize {
-        let header = MavHeader {
-            system_id: u32::from(self.ids.autopilot_system),
-            component_id: self.ids.autopilot_component,
-            sequence: self.sequence,
-        };
-        let mut raw = MAVLinkV2MessageRaw::new();
-        raw.serialize_message_data(header, data);
-        let bytes = raw.raw_bytes();
-        match buf.get_mut(..bytes.len()) {
-            Some(out) => {
-                out.copy_from_slice(bytes);
-                self.sequence = self.sequence.wrapping_add(1);
-                bytes.len()
-            }
-            None => 0,
-        }
+        self.encoder.frame(data, buf).unwrap_or(0)
     }
 }
 
