@@ -1087,16 +1087,7 @@ impl App {
                     }
                     None => len,
                 };
-                // The frame first, then the logs (outside the deadline's window).
-                let late = match len {
-                    Some(len) => {
-                        sent += 1;
-                        self.send(board, len)
-                    }
-                    None => None,
-                };
-                self.log_events(board, event);
-                self.log_events(board, late);
+                sent += self.answer(board, len, event);
             }
         }
         if self.waiting.is_some() {
@@ -1104,15 +1095,7 @@ impl App {
             let pass_at = B::Counter::now();
             self.receive_autopilot(board);
             let (len, event) = self.release_waiting::<B::Counter>(pass_at);
-            let late = match len {
-                Some(len) => {
-                    sent += 1;
-                    self.send(board, len)
-                }
-                None => None,
-            };
-            self.log_events(board, event);
-            self.log_events(board, late);
+            sent += self.answer(board, len, event);
         }
         // Taken in both schedules (a board may tick in lockstep too, to wake the loop);
         // lockstep ignores the periods.
@@ -1138,6 +1121,15 @@ impl App {
             self.log_events(board, late);
         }
         sent
+    }
+
+    /// Sends the frame of length `len` if there is one, then logs `event` and a deadline
+    /// overrun (outside the deadline's window); the frames sent (0 or 1).
+    fn answer<B: Board>(&mut self, board: &mut B, len: Option<usize>, event: Option<Event>) -> u32 {
+        let late = len.and_then(|len| self.send(board, len));
+        self.log_events(board, event);
+        self.log_events(board, late);
+        u32::from(len.is_some())
     }
 
     /// Every byte the autopilot link has received, into the session (stamped with the link's
