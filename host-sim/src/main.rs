@@ -95,7 +95,7 @@ enum Command {
         #[arg(long)]
         paper: bool,
         /// The latency the controller's predictor compensates, control periods (default: the
-        /// configuration's, 1).
+        /// refuelling campaigns', 2; the paper's configuration's, 0).
         #[arg(long, value_parser = clap::value_parser!(u8).range(0..=4))]
         design_latency: Option<u8>,
         /// Print each node's worst figures (over the cgs and latencies) instead of every point.
@@ -586,7 +586,7 @@ fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(),
     let mut cfg = if paper {
         ControllerConfig::paper()
     } else {
-        ControllerConfig::default()
+        synthesis::margins::flown_config()
     };
     if let Some(d) = design_latency {
         cfg.nav_latency_steps = d;

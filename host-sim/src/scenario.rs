@@ -1728,11 +1728,18 @@ impl ScenarioFile {
             f.receiver.xcg = uniform(SALT_XCG, r);
         }
         if let Some([lo, hi]) = d.nav_latency_steps {
-            // The INS's latency varies from run to run; the controller keeps the one it was
-            // configured with, the file's (an installation figure, not the run's truth).
+            // The INS's latency varies from run to run within the range the installation
+            // states; the controller compensates the range's upper end (the file's own
+            // figure if larger), the same in every run: a latency predicted short costs the
+            // inner loops more margin than one predicted long (`docs/margins.md`), and a
+            // controller is configured once, not per sortie. At most what the predictor
+            // compensates.
             let c = &mut f.controller;
             if !c.nav_latency_given {
-                c.config.nav_latency_steps = self.navigation.installed_latency_steps();
+                let upper = u8::try_from(hi)
+                    .unwrap_or(u8::MAX)
+                    .min(ibvs_core::predictor::MAX_NAV_LATENCY_STEPS);
+                c.config.nav_latency_steps = self.navigation.installed_latency_steps().max(upper);
                 c.nav_latency_given = true;
             }
             f.navigation.ins.latency_steps = stream(SALT_NAV_LATENCY).random_range(lo..=hi);
@@ -2163,19 +2170,32 @@ mod tests {
         }
     }
 
-    /// The INS's latency is dispersed; the latency the controller compensates stays the
-    /// file's (the installed figure), whatever the run's INS does.
+    /// The INS's latency is dispersed; the latency the controller compensates is the
+    /// dispersed range's upper end in every run, whatever the run's INS does (the file's
+    /// own figure without the dispersion).
     #[test]
-    fn a_dispersed_ins_latency_leaves_the_compensated_latency_at_the_files() {
+    fn a_dispersed_ins_latency_is_compensated_at_the_ranges_upper_end() {
         let base = ScenarioFile::load("level2").unwrap();
         assert_eq!(base.controller_config().nav_latency_steps, 1);
         let mut seen = std::collections::BTreeSet::new();
         for i in 0..50 {
             let f = base.dispersed(i);
             seen.insert(f.navigation.ins.latency_steps);
-            assert_eq!(f.controller_config().nav_latency_steps, 1, "run {i}");
+            assert_eq!(f.controller_config().nav_latency_steps, 2, "run {i}");
         }
         assert_eq!(seen, [1, 2].into());
+        // A range beyond what the predictor compensates: its largest.
+        let long = ScenarioFile::parse(
+            &PRESETS
+                .iter()
+                .find(|p| p.0 == "level2")
+                .map_or(String::new(), |p| {
+                    p.2.replace("nav_latency_steps = [1, 2]", "nav_latency_steps = [1, 9]")
+                }),
+            "long",
+        )
+        .unwrap();
+        assert_eq!(long.dispersed(3).controller_config().nav_latency_steps, 4);
         // Ideal navigation compensates nothing; a stated figure wins over the INS's own.
         let paper = ScenarioFile::load("paper-level2").unwrap();
         assert_eq!(paper.controller_config().nav_latency_steps, 0);

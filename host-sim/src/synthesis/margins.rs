@@ -112,6 +112,20 @@ pub enum MarginsError {
     Schedule(ScheduleError),
 }
 
+/// The navigation latency the refuelling campaigns' predictor compensates, control periods:
+/// the upper end of their INS latency range, 1..2 (`docs/conventions.md`, "Navigation
+/// errors"; the presets' dispersion, checked by `host-sim/tests/margins.rs`).
+pub const FLOWN_NAV_LATENCY_STEPS: u8 = 2;
+
+/// The refuelling procedure's controller as the refuelling campaigns fly it: the default
+/// configuration with the predictor set for [`FLOWN_NAV_LATENCY_STEPS`].
+pub fn flown_config() -> ControllerConfig {
+    ControllerConfig {
+        nav_latency_steps: FLOWN_NAV_LATENCY_STEPS,
+        ..ControllerConfig::default()
+    }
+}
+
 /// A balanced disk margin and the frequency of its worst point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiskMargin {
