@@ -278,37 +278,37 @@ fn the_analysed_loop_is_the_flown_loop() {
 /// schedule's order (`[altitude][speed]`, speed fastest). 45 deg needs 0.828.
 const DOCUMENTED_WORST: [[f64; 7]; 16] = [
     // 100 m/s, 500 m
-    [0.444, 0.635, 0.579, 1.314, 0.444, 0.569, 0.433],
+    [0.511, 0.635, 0.579, 1.314, 0.511, 0.569, 0.494],
     // 120 m/s, 500 m
-    [0.399, 0.636, 0.625, 1.184, 0.399, 0.552, 0.387],
+    [0.479, 0.636, 0.625, 1.184, 0.479, 0.552, 0.462],
     // 145 m/s, 500 m
-    [0.351, 0.637, 0.782, 1.062, 0.351, 0.602, 0.333],
+    [0.446, 0.637, 0.782, 1.062, 0.446, 0.602, 0.422],
     // 170 m/s, 500 m
-    [0.312, 0.637, 0.813, 0.954, 0.312, 0.632, 0.287],
+    [0.421, 0.637, 0.813, 0.954, 0.421, 0.632, 0.384],
     // 100 m/s, 3000 m
-    [0.462, 0.641, 0.573, 1.396, 0.462, 0.552, 0.374],
+    [0.522, 0.641, 0.573, 1.396, 0.522, 0.552, 0.420],
     // 120 m/s, 3000 m
-    [0.423, 0.644, 0.556, 1.259, 0.422, 0.535, 0.401],
+    [0.497, 0.644, 0.556, 1.259, 0.497, 0.535, 0.467],
     // 145 m/s, 3000 m
-    [0.374, 0.643, 0.630, 1.136, 0.374, 0.543, 0.359],
+    [0.462, 0.643, 0.630, 1.136, 0.462, 0.543, 0.436],
     // 170 m/s, 3000 m
-    [0.335, 0.644, 0.770, 1.033, 0.334, 0.607, 0.313],
+    [0.435, 0.644, 0.770, 1.033, 0.435, 0.607, 0.405],
     // 100 m/s, 5500 m
-    [0.449, 0.652, 0.602, 1.445, 0.449, 0.554, 0.441],
+    [0.491, 0.652, 0.602, 1.445, 0.491, 0.554, 0.482],
     // 120 m/s, 5500 m
-    [0.442, 0.653, 0.536, 1.340, 0.442, 0.526, 0.406],
+    [0.509, 0.653, 0.536, 1.340, 0.508, 0.526, 0.464],
     // 145 m/s, 5500 m
-    [0.403, 0.655, 0.541, 1.209, 0.402, 0.510, 0.366],
+    [0.484, 0.655, 0.541, 1.209, 0.484, 0.510, 0.438],
     // 170 m/s, 5500 m
-    [0.360, 0.652, 0.618, 1.111, 0.360, 0.534, 0.336],
+    [0.452, 0.652, 0.618, 1.111, 0.452, 0.534, 0.412],
     // 100 m/s, 8000 m
-    [0.489, 0.658, 0.515, 1.410, 0.489, 0.499, 0.475],
+    [0.527, 0.658, 0.515, 1.410, 0.526, 0.499, 0.475],
     // 120 m/s, 8000 m
-    [0.430, 0.668, 0.560, 1.403, 0.429, 0.527, 0.417],
+    [0.477, 0.668, 0.560, 1.403, 0.477, 0.527, 0.463],
     // 145 m/s, 8000 m
-    [0.424, 0.667, 0.502, 1.289, 0.424, 0.498, 0.370],
+    [0.497, 0.667, 0.502, 1.289, 0.496, 0.498, 0.432],
     // 170 m/s, 8000 m
-    [0.392, 0.667, 0.520, 1.188, 0.392, 0.489, 0.337],
+    [0.477, 0.667, 0.520, 1.188, 0.477, 0.489, 0.410],
 ];
 
 /// The 6 dB / 45 deg requirement where it holds, and a regression guard where it does not:
@@ -387,20 +387,23 @@ fn the_loop_is_stable_across_each_inputs_disk_gain_range() {
 }
 
 /// docs/margins.md, "Why the margins are short": the refuelling design's own LQR loop (its
-/// design model, true actuator deflections and engine power fed back, no latency) is already
-/// short of 45 deg at the elevator (0.736, 40.4 deg) and meets it at the other three inputs
-/// (throttle 0.978, aileron 1.018, rudder 1.691); flown, the throttle's falls to about 0.70
-/// (its engine power is the controller's open-loop estimate).
+/// design model, true actuator deflections and engine power fed back, no latency) meets
+/// 45 deg at all four inputs (elevator 0.847, throttle 0.978, aileron 1.018, rudder 1.691);
+/// flown, the elevator's and the throttle's fall short (the deflections and the engine power
+/// fed back are the controller's open-loop models of its own commands): the throttle's to
+/// about 0.70, the elevator's at this node and cg 0.40 below 0.828 even without latency.
 #[test]
-fn the_design_loop_alone_is_short_at_the_elevator() {
+fn the_design_loop_meets_45_deg_and_the_flown_loop_does_not() {
     let s = nominal_refuelling().unwrap();
     let lon = design_loop_margins(&s.lon);
     let lat = design_loop_margins(&s.lat);
     let measured = [lon.input[0], lon.input[1], lat.input[0], lat.input[1]].map(|m| m.alpha);
-    for (got, documented) in measured.iter().zip([0.736, 0.978, 1.018, 1.691]) {
+    for (got, documented) in measured.iter().zip([0.847, 0.978, 1.018, 1.691]) {
         assert!((got - documented).abs() < 5e-4, "{measured:?}");
     }
-    assert!(!lon.input[0].meets_6db_45deg());
+    for input in lon.input.iter().chain(lat.input.iter()) {
+        assert!(input.meets_6db_45deg(), "{measured:?}");
+    }
     let flown = FlownLoop {
         plant: &TruePlant::new(0.40, 120.0, 3000.0).unwrap(),
         controller: &FlownController::new(
@@ -414,5 +417,10 @@ fn the_design_loop_alone_is_short_at_the_elevator() {
         flown.input[1].alpha < 0.75,
         "flown throttle {}",
         flown.input[1].alpha
+    );
+    assert!(
+        !flown.input[0].meets_6db_45deg(),
+        "flown elevator {}",
+        flown.input[0].alpha
     );
 }

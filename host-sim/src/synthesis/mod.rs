@@ -104,10 +104,14 @@ impl DesignWeights {
     /// delay, and commands that reversed faster than the surfaces' rate limits in strong air,
     /// the rate-limited oscillation that ended most `mil-level2` losses of control. With them,
     /// the same weights ask for 40 % less elevator rate per m/s commanded, and that mode is
-    /// gone. `docs/conventions.md`, "Inner loops".
+    /// gone. The pitch rate is weighted ten times the paper's (1,000 instead of 100), for the
+    /// elevator loop's robustness: its worst disk margin over the schedule, cg and latency
+    /// grid 0.313 → 0.422, and on dispersed airframes (light, aft cg) in strong air fewer
+    /// pitch oscillations growing into losses of control. `docs/conventions.md`, "Inner
+    /// loops".
     pub fn refuelling() -> Self {
         Self {
-            lon_q: [100.0, 0.0, 100.0, 100.0, 0.0, 1000.0, 400.0],
+            lon_q: [100.0, 0.0, 100.0, 1000.0, 0.0, 1000.0, 400.0],
             lon_r: [1000.0, 400.0],
             lat_q: [100.0, 300.0, 100.0, 100.0, 100.0, 1500.0],
             lat_r: [300.0, 300.0],
@@ -609,14 +613,14 @@ mod tests {
     #[test]
     fn the_refuelling_design_is_faster_laterally_and_stable() {
         // Measured on the design model with its actuators: lateral 90 % rise 0.86 s (the
-        // paper's design 1.18 s), down 0.78 s, forward 1.92 s; the bounds leave 10 % of margin.
+        // paper's design 1.18 s), down 0.86 s, forward 1.92 s; the bounds leave 10 % of margin.
         let s = nominal_refuelling().unwrap();
         for d in [&s.lon, &s.lat] {
             assert!(d.riccati_residual < 1e-12, "{}", d.riccati_residual);
             assert!(d.closed_loop_spectral_radius < 0.995);
         }
         for (name, d, i, rise_max) in [
-            ("down", &s.lon, 0, 0.86),
+            ("down", &s.lon, 0, 0.95),
             ("forward", &s.lon, 1, 2.11),
             ("right", &s.lat, 0, 0.95),
         ] {
