@@ -203,21 +203,30 @@ pub struct RefuellingConfig {
     /// taper to `late_gate_final_radius_m` keeps the plane safe; `docs/conventions.md`).
     pub gate_sigmas: f32,
     /// In the capture, on every valid frame: the same prediction beyond this is a late
-    /// no-go, m. Default 0.40 m, tighter than the gate's 0.45 m although the capture keeps
-    /// correcting: at 0.45 m the 10,000-run campaigns struck 1 (level II), 1 (bow wave) and
-    /// 3 (wide start) times, just outside the capture radius after a go; at 0.40 m none
-    /// (docs/scenarios.md), for about one point of sortie success.
+    /// no-go, m. Default 0.50 m, the final radius's 0.40 m plus 0.1 m tapered over
+    /// `late_gate_taper_m` (the prediction's error grows with the time to go). It was
+    /// 0.40 m: `late_gate_final_radius_m` says why it moved.
     pub late_gate_radius_m: f32,
     /// The late no-go's radius at the drogue plane, m: the late gate's radius falls from
     /// `late_gate_radius_m` at `late_gate_taper_m` (and more) of estimated depth to this at
-    /// the plane, linearly. Default 0.25 m, inside the 0.3 m capture radius: close
-    /// in the capture can no longer move the tip, and a predicted miss there is a strike
-    /// the receiver would push through (measured: in air of MIL-F-8785C's 10⁻² intensity
-    /// the fixed 0.40 m struck 24 times in 10,000 sorties, 0.30..0.36 m off, each
-    /// predicted that far off all the last half second; `docs/scenarios.md`). It was
-    /// 0.27 m until the gates went to one standard deviation: then one sortie in 10,000
-    /// of that air crossed 0.300 m off, predicted 0.274 m 4 cm before the plane (the
-    /// prediction's error plus the depth's); 0.25 m leaves 5 cm for them.
+    /// the plane, linearly. Default 0.40 m: the radius within which a crossing strikes the
+    /// basket (the canopy's 0.305 m plus the probe head's 0.05 m) plus 5 cm of the
+    /// prediction's error. Why: the late gate's window (`late_gate_depth_m` 1.3 m to
+    /// `late_gate_min_depth_m` 0.6 m) lies inside the stopping distance (1.7 m at 1 m/s
+    /// over the forward loop's lag, `forward_lag_s`), so a late no-go cannot stop short of
+    /// the plane; it changes only how the tip crosses it: it stops steering at the drogue
+    /// and descends. A miss predicted inside the strike radius is better left to the
+    /// capture, which keeps steering at the centre (it docks or crosses near it); turned
+    /// away, the tip crossed in the basket's ring (tuning runs 0..9,999 of `level2`: 14 of
+    /// 15 basket strikes followed a late no-go inside 1.3 m). A miss predicted beyond it is
+    /// a crossing outside the basket, where the turn away's descent keeps the drogue off
+    /// the airframe and the hose. Measured on tuning runs (success, unsafe runs; radii far /
+    /// at the plane): `level2` 0..9,999, 0.40 / 0.25 m: 9,976, 24 (basket strikes 15);
+    /// 0.50 / 0.40 m: 9,986, 14 (5); 0.60 / 0.50 m: 9,985, 15; no late gate: 9,986, 14.
+    /// `mil-level2` 0..1,999: 1,672, 279; 1,716, 247 (drogue on the airframe 2 → 5, hose
+    /// contacts 72 → 86, hard contacts 69 → 45); 1,710, 258 (airframe 17, hose 112); no late
+    /// gate 1,679, 287 (airframe 33, hose 153). It was 0.25 m, inside the capture radius,
+    /// when the late no-go was taken to stop short of the plane.
     pub late_gate_final_radius_m: f32,
     /// Depth inside which the capture judges its late no-go and its closing speed, m:
     /// farther out the capture still has more than its lag to correct, and the gate's
@@ -326,8 +335,8 @@ impl Default for RefuellingConfig {
             stop_clearance_m: 0.3,
             gate_radius_m: 0.45,
             gate_sigmas: 1.0,
-            late_gate_radius_m: 0.40,
-            late_gate_final_radius_m: 0.25,
+            late_gate_radius_m: 0.50,
+            late_gate_final_radius_m: 0.40,
             late_gate_depth_m: 1.3,
             late_gate_min_depth_m: 0.6,
             late_gate_taper_m: 0.5,

@@ -1064,7 +1064,7 @@ fn new_rejects_an_invalid_config_naming_the_field() {
     );
     assert_eq!(rejection(|c| c.nav_latency_steps = 4), None);
     assert_eq!(
-        rejection(|c| c.refuelling.late_gate_final_radius_m = 0.45),
+        rejection(|c| c.refuelling.late_gate_final_radius_m = 0.55),
         named(
             "refuelling.late_gate_final_radius_m",
             ConfigProblem::Inconsistent
