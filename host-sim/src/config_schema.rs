@@ -506,7 +506,7 @@ mod tests {
             ),
             (
                 "refuelling.late_gate_final_radius_m",
-                "[refuelling]\nlate_gate_final_radius_m = 0.5",
+                "[refuelling]\nlate_gate_final_radius_m = 0.6",
             ),
             (
                 "refuelling.commit_depth_m",
@@ -660,7 +660,7 @@ mod tests {
         let text = to_text(&schema());
         assert!(
             text.contains(
-                "refuelling.late_gate_final_radius_m = 0.25  # m\n    requires finite, > 0\n    \
+                "refuelling.late_gate_final_radius_m = 0.4  # m\n    requires finite, > 0\n    \
              requires refuelling.late_gate_final_radius_m <= refuelling.late_gate_radius_m\n"
             ),
             "{text}"
