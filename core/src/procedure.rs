@@ -217,8 +217,9 @@ pub struct RefuellingConfig {
     /// the plane; it changes only how the tip crosses it: it stops steering at the drogue
     /// and descends. A miss predicted inside the strike radius is better left to the
     /// capture, which keeps steering at the centre (it docks or crosses near it); turned
-    /// away, the tip crossed in the basket's ring (tuning runs 0..9,999 of `level2`: 14 of
-    /// 15 basket strikes followed a late no-go inside 1.3 m). A miss predicted beyond it is
+    /// away, the tip crossed in the basket's ring (tuning runs 0..9,999 of `level2`: 13 of
+    /// 15 basket strikes followed a no-go taken inside 1.3 m, 12 of them the late gate's).
+    /// A miss predicted beyond it is
     /// a crossing outside the basket, where the turn away's descent keeps the drogue off
     /// the airframe and the hose. Measured on tuning runs (success, unsafe runs; radii far /
     /// at the plane): `level2` 0..9,999, 0.40 / 0.25 m: 9,976, 24 (basket strikes 15);
