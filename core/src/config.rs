@@ -76,9 +76,10 @@ pub struct ControllerConfig {
     /// Bound on each inner-loop integrator (a position error), m.
     pub integrator_limit_m: f32,
     /// Latency of the navigation sample, control periods: the installed INS's, from its
-    /// installation data. The inner loops see the state predicted forward over it
-    /// ([`crate::predictor`]); 0 feeds the sample back as it is. At most
-    /// [`MAX_NAV_LATENCY_STEPS`].
+    /// installation data; where those give a range, its upper end (a latency predicted
+    /// short costs the inner loops more margin than one predicted long: `docs/margins.md`).
+    /// The inner loops see the state predicted forward over it ([`crate::predictor`]); 0
+    /// feeds the sample back as it is. At most [`MAX_NAV_LATENCY_STEPS`].
     pub nav_latency_steps: u8,
     /// The refuelling procedure.
     pub refuelling: RefuellingConfig,

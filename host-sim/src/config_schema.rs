@@ -156,9 +156,10 @@ pub fn settings_of(config: &ControllerConfig) -> Vec<(String, toml::Value)> {
 fn scenario_default(key: &str) -> Option<&'static str> {
     match key {
         k if k == DERIVED_KEYS[0] => Some("[camera] placement less camera.mount_error_m"),
-        k if k == DERIVED_KEYS[1] => {
-            Some("[navigation]: the INS's ins.latency_steps; 0 with model = \"ideal\"")
-        }
+        k if k == DERIVED_KEYS[1] => Some(
+            "[navigation]: the INS's ins.latency_steps; with [dispersion] nav_latency_steps, \
+                 that range's upper end; 0 with model = \"ideal\"",
+        ),
         _ => None,
     }
 }
