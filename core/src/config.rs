@@ -630,6 +630,12 @@ impl ControllerConfig {
         }
     }
 
+    /// The attitude-command loop, when this configuration flies through the aircraft's
+    /// autopilot ([`InnerLoop::Attitude`]); `None` when it flies the surfaces.
+    pub fn autopilot_loop(&self) -> Option<AttitudeLoopConfig> {
+        (self.inner_loop == InnerLoop::Attitude).then_some(self.attitude)
+    }
+
     /// Checks every value against [`RULES`], in order; the first rule broken is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_rules(self)

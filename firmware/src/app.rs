@@ -78,7 +78,6 @@ use embedded_io::{Read, ReadReady};
 use ibvs_core::Counters;
 use ibvs_core::actuator::ActuatorCommand;
 use ibvs_core::attitude::Command;
-use ibvs_core::attitude::InnerLoop;
 use ibvs_core::config::trim_command;
 use ibvs_core::gains::CONTROL_PERIOD_S;
 use ibvs_core::measurement::SequenceTracker;
@@ -882,7 +881,7 @@ impl App {
     /// Whether the configuration flown flies through the autopilot (the attitude-command
     /// inner loop): navigation and mode from the autopilot, setpoints to it.
     fn through_autopilot(&self) -> bool {
-        self.controller.config().inner_loop == InnerLoop::Attitude
+        self.controller.config().autopilot_loop().is_some()
     }
 
     /// The step's input from the uplink's: through the autopilot, with its navigation and
@@ -1182,6 +1181,7 @@ mod tests {
     use std::collections::VecDeque;
     use std::vec::Vec;
 
+    use ibvs_core::attitude::InnerLoop;
     use ibvs_core::config::ConfigProblem;
     use ibvs_core::measurement::CameraMeasurement;
     use ibvs_core::wire::{

@@ -75,7 +75,7 @@ use serde::Serialize;
 
 use crate::sim::{AutopilotStep, FlightComputer};
 use autopilot_link::peer::read_setpoint;
-use ibvs_core::attitude::{Command as FlightCommand, InnerLoop};
+use ibvs_core::attitude::Command as FlightCommand;
 
 /// Environment variable naming the firmware ELF to fly ([`firmware_elf`]).
 pub const FIRMWARE_ELF_ENV: &str = "IBVS_FIRMWARE_ELF";
@@ -1464,7 +1464,7 @@ impl FlightComputer for PilFlightComputer {
 
     /// From the configuration written.
     fn autopilot_design(&self) -> Option<ibvs_core::attitude::AttitudeLoopConfig> {
-        (self.config.inner_loop == InnerLoop::Attitude).then_some(self.config.attitude)
+        self.config.autopilot_loop()
     }
 
     /// The firmware runs its own side of the link: the simulator's session is not used.

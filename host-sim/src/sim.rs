@@ -48,7 +48,7 @@ use crate::world::wake::{TankerWake, WakeError, WakeParams};
 use crate::world::{Camera, Drogue, Mount, Tanker, World, ned_from_body, point_in_tanker_m};
 use autopilot_link::peer::{AutopilotTelemetry, MAX_TELEMETRY_LEN, Peer, read_setpoint};
 use autopilot_link::session::{MAX_BURST_LEN, Session, SessionConfig};
-use ibvs_core::attitude::{AttitudeLoopConfig, Command, InnerLoop};
+use ibvs_core::attitude::{AttitudeLoopConfig, Command};
 use ibvs_core::estimator::TIP_IN_VIEW_MIN_DEPTH_M;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
 
@@ -129,7 +129,7 @@ impl FlightComputer for Controller {
     }
 
     fn autopilot_design(&self) -> Option<AttitudeLoopConfig> {
-        (self.config().inner_loop == InnerLoop::Attitude).then_some(self.config().attitude)
+        self.config().autopilot_loop()
     }
 
     /// After every step.
