@@ -81,6 +81,14 @@ pub struct ControllerConfig {
     /// The inner loops see the state predicted forward over it ([`crate::predictor`]); 0
     /// feeds the sample back as it is. At most [`MAX_NAV_LATENCY_STEPS`].
     pub nav_latency_steps: u8,
+    /// The receiver's gross mass as a factor of the design airframe's (the model data's
+    /// 9,295 kg), from its fuel quantity and stores (`docs/conventions.md`, "Two designs by
+    /// mass"). It chooses the refuelling procedure's inner-loop design: below
+    /// [`LIGHT_DESIGN_BELOW_MASS_FACTOR`] the light airframe's
+    /// ([`gains::REFUEL_LIGHT_MASS_FACTOR`]), else the first. Between
+    /// [`MIN_MASS_FACTOR`] and [`MAX_MASS_FACTOR`]. The paper's procedure flies its one
+    /// design at any mass.
+    pub mass_factor: f32,
     /// The refuelling procedure.
     pub refuelling: RefuellingConfig,
     /// The drogue estimator (refuelling procedure).
@@ -172,6 +180,8 @@ impl Default for ControllerConfig {
             // The stated sensor suite's INS: one control period (docs/models.md,
             // "Navigation").
             nav_latency_steps: 1,
+            // The design airframe's: the first design, as before the second existed.
+            mass_factor: 1.0,
             refuelling: RefuellingConfig::default(),
             estimator: EstimatorConfig::default(),
             inner_loop: InnerLoop::Surfaces,
@@ -357,6 +367,18 @@ fn holds_trim(a: &ActuatorLimits) -> bool {
         .all(|((lo, hi), t)| *lo <= t && t <= hi)
 }
 
+/// The gross-mass factor below which the refuelling procedure flies its light design:
+/// midway between the two designs' masses ([`gains::REFUEL_LIGHT_MASS_FACTOR`] and 1), where
+/// either design's model is as far from the aircraft as the other's.
+pub const LIGHT_DESIGN_BELOW_MASS_FACTOR: f32 = 0.5 * (gains::REFUEL_LIGHT_MASS_FACTOR + 1.0);
+
+/// The smallest gross-mass factor accepted: below any airframe of the type (the F-16's empty
+/// mass is about 0.92 of the design's); a value under it is a unit or entry mistake.
+pub const MIN_MASS_FACTOR: f32 = 0.5;
+/// The largest gross-mass factor accepted: above any airframe of the type (its maximum
+/// take-off mass is about 2.1 of the design's).
+pub const MAX_MASS_FACTOR: f32 = 2.5;
+
 /// One hour, s: the longest dwell, timeout or limit a configuration may give.
 pub const HOUR_S: f32 = 3600.0;
 /// One day, s: the longest sortie budget.
@@ -377,6 +399,7 @@ config_rules! {
         actuators,
         integrator_limit_m,
         nav_latency_steps,
+        mass_factor,
         refuelling,
         estimator,
         inner_loop: _,
@@ -441,6 +464,7 @@ config_rules! {
     holds actuators.rate_radps if rates_positive(actuators);
     positive integrator_limit_m;
     holds nav_latency_steps if *nav_latency_steps <= MAX_NAV_LATENCY_STEPS;
+    holds mass_factor if (MIN_MASS_FACTOR..=MAX_MASS_FACTOR).contains(mass_factor);
     positive estimator.drogue_time_constant_s;
     positive estimator.drogue_accel_psd_m2ps3;
     positive estimator.drogue_fwd_time_constant_s;

@@ -31,7 +31,9 @@ use crate::actuator::{ActuatorCommand, Saturation};
 use crate::attitude::{
     AttitudeDesign, AttitudeInputs, AttitudeLoop, AttitudeSetpoint, Command, InnerLoop,
 };
-use crate::config::{ConfigError, ConfigProblem, ControllerConfig, OuterLaw};
+use crate::config::{
+    ConfigError, ConfigProblem, ControllerConfig, LIGHT_DESIGN_BELOW_MASS_FACTOR, OuterLaw,
+};
 use crate::estimator::{
     DrogueEstimate, DrogueEstimator, EstimatorModel, TipFrame, TipGeometry, TipSight, TipSighting,
 };
@@ -485,9 +487,13 @@ impl Controller {
             Procedure::Paper => cfg.camera.position_body_m,
             Procedure::Refuelling => cfg.probe_tip_body_m,
         };
-        // Each procedure flies its own inner-loop design (`gains`).
+        // Each procedure flies its own inner-loop design (`gains`); the refuelling procedure
+        // one of two, by the receiver's gross mass.
         let (lon, lat) = match cfg.procedure {
             Procedure::Paper => (&d.lon, &d.lat),
+            Procedure::Refuelling if cfg.mass_factor < LIGHT_DESIGN_BELOW_MASS_FACTOR => {
+                (&d.refuel_light_lon, &d.refuel_light_lat)
+            }
             Procedure::Refuelling => (&d.refuel_lon, &d.refuel_lat),
         };
         let u = d.trim.command();

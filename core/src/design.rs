@@ -28,6 +28,12 @@ pub struct DesignPoint {
     pub refuel_lon: ChannelGains<5, 2, 2>,
     /// The refuelling procedure's lateral gains.
     pub refuel_lat: ChannelGains<5, 1, 2>,
+    /// The refuelling procedure's longitudinal gains for a light airframe
+    /// ([`crate::gains::REFUEL_LIGHT_MASS_FACTOR`]), flown below
+    /// [`crate::config::LIGHT_DESIGN_BELOW_MASS_FACTOR`].
+    pub refuel_light_lon: ChannelGains<5, 2, 2>,
+    /// The refuelling procedure's lateral gains for a light airframe.
+    pub refuel_light_lat: ChannelGains<5, 1, 2>,
     /// The latency predictor's longitudinal plant.
     pub predict_lon: PlantModel<4, 2, 2>,
     /// The latency predictor's lateral plant.

@@ -70,6 +70,8 @@ pub const DESIGN: DesignPoint = DesignPoint {
     lat: gains::LAT,
     refuel_lon: gains::REFUEL_LON,
     refuel_lat: gains::REFUEL_LAT,
+    refuel_light_lon: gains::REFUEL_LIGHT_LON,
+    refuel_light_lat: gains::REFUEL_LIGHT_LAT,
     predict_lon: gains::PREDICT_LON,
     predict_lat: gains::PREDICT_LAT,
 };
@@ -164,6 +166,8 @@ impl Blend for DesignPoint {
             lat: field!(n, w, lat),
             refuel_lon: field!(n, w, refuel_lon),
             refuel_lat: field!(n, w, refuel_lat),
+            refuel_light_lon: field!(n, w, refuel_light_lon),
+            refuel_light_lat: field!(n, w, refuel_light_lat),
             predict_lon: field!(n, w, predict_lon),
             predict_lat: field!(n, w, predict_lat),
         }
@@ -330,6 +334,8 @@ mod tests {
         assert_eq!(d.lat, gains::LAT);
         assert_eq!(d.refuel_lon, gains::REFUEL_LON);
         assert_eq!(d.refuel_lat, gains::REFUEL_LAT);
+        assert_eq!(d.refuel_light_lon, gains::REFUEL_LIGHT_LON);
+        assert_eq!(d.refuel_light_lat, gains::REFUEL_LIGHT_LAT);
         assert_eq!(d.predict_lon, gains::PREDICT_LON);
         assert_eq!(d.predict_lat, gains::PREDICT_LAT);
     }
@@ -424,6 +430,16 @@ mod tests {
                     "refuel lat k",
                     d.refuel_lat.k_state[r][c],
                     corners.map(|n| n.refuel_lat.k_state[r][c]),
+                );
+                check(
+                    "refuel light lon k",
+                    d.refuel_light_lon.k_state[r][c],
+                    corners.map(|n| n.refuel_light_lon.k_state[r][c]),
+                );
+                check(
+                    "refuel light lat k",
+                    d.refuel_light_lat.k_state[r][c],
+                    corners.map(|n| n.refuel_light_lat.k_state[r][c]),
                 );
             }
         }

@@ -115,3 +115,28 @@ fn actuator_limits_must_be_finite_and_strictly_ordered() {
         "min infinite"
     );
 }
+
+#[test]
+fn the_gross_mass_factor_is_accepted_within_its_bounds_and_refused_outside_or_not_finite() {
+    use ibvs_core::config::{MAX_MASS_FACTOR, MIN_MASS_FACTOR};
+    let rule = "(MIN_MASS_FACTOR..=MAX_MASS_FACTOR).contains(mass_factor)";
+    for ok in [MIN_MASS_FACTOR, 0.85, 1.0, 1.25, MAX_MASS_FACTOR] {
+        assert_eq!(rejection(|c| c.mass_factor = ok), None, "{ok}");
+    }
+    for bad in [
+        MIN_MASS_FACTOR.next_down(),
+        MAX_MASS_FACTOR.next_up(),
+        0.0,
+        -1.0,
+        // A mass in kilograms or pounds where the factor belongs.
+        9295.0,
+        f32::NAN,
+        f32::INFINITY,
+    ] {
+        assert_eq!(
+            rejection(|c| c.mass_factor = bad),
+            Some(("mass_factor", ConfigProblem::Inconsistent, rule)),
+            "{bad}"
+        );
+    }
+}

@@ -13,10 +13,10 @@
 //! healthy sensor would have produced: the specified response to a bad input is then an exact
 //! equality, not a tolerance.
 
-use ibvs_core::config::ConfigProblem;
+use ibvs_core::config::{ConfigProblem, LIGHT_DESIGN_BELOW_MASS_FACTOR};
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::frames::{TargetEstimate, VelocityRe};
-use ibvs_core::gains::TRIM;
+use ibvs_core::gains::{REFUEL_LIGHT_MASS_FACTOR, TRIM};
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{FlightCondition, NavError, NavSample};
 use ibvs_core::schedule::{ScheduleError, design_at};
@@ -1399,4 +1399,48 @@ fn the_attitude_loop_engages_only_with_the_autopilot_following_and_breaks_away_w
     assert!(engaged(out.mode), "{:?}", out.mode);
     let out = rig.step_with(MID, |i| i.autopilot_ready = false);
     assert!(engaged(out.mode), "{:?}", out.mode);
+}
+
+/// The command of the first engaged step of the refuelling procedure configured with gross
+/// mass `mass_factor` (the same state and frame for every mass).
+fn refuelling_command_at_mass(mass_factor: f32) -> [f32; 4] {
+    let mut cfg = ControllerConfig::default();
+    cfg.measurement.frozen_frame_limit = u16::MAX;
+    cfg.mass_factor = mass_factor;
+    let mut rig = Rig::new(cfg);
+    rig.nav = perturbed_nav();
+    rig.step_with(MID, |_| {});
+    let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+    assert_eq!(out.mode, Mode::PreContact);
+    rig.step_with(MID, |_| {}).command.as_array()
+}
+
+#[test]
+fn the_refuelling_procedure_flies_its_light_design_below_the_switch_mass_and_its_first_above() {
+    let switch = LIGHT_DESIGN_BELOW_MASS_FACTOR;
+    assert!(switch > REFUEL_LIGHT_MASS_FACTOR && switch < 1.0);
+    let first = refuelling_command_at_mass(1.0);
+    assert_eq!(refuelling_command_at_mass(switch), first, "at the switch");
+    assert_eq!(refuelling_command_at_mass(1.25), first, "heavier");
+    let light = refuelling_command_at_mass(switch.next_down());
+    assert_eq!(refuelling_command_at_mass(0.85), light, "lighter still");
+    assert_ne!(
+        light[0], first[0],
+        "another elevator gain: {light:?} vs {first:?}"
+    );
+    assert_ne!(
+        light[2], first[2],
+        "another aileron gain: {light:?} vs {first:?}"
+    );
+    // The paper's procedure flies its one design at any mass.
+    let paper_at = |m: f32| {
+        let mut cfg = config();
+        cfg.mass_factor = m;
+        let mut rig = Rig::new(cfg);
+        rig.nav = perturbed_nav();
+        rig.step_with(MID, |_| {});
+        rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+        rig.step_with(MID, |_| {}).command.as_array()
+    };
+    assert_eq!(paper_at(0.85), paper_at(1.0));
 }

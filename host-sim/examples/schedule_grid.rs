@@ -8,7 +8,10 @@
 
 use host_sim::receiver::F16;
 use host_sim::synthesis::schedule::{ScheduleNode, node};
-use host_sim::synthesis::{NOMINAL_XCG, REFUELLING_DESIGN_XCG, Synthesis, linalg::spectral_radius};
+use host_sim::synthesis::{
+    LIGHT_REFUELLING_MASS_FACTOR, NOMINAL_XCG, Synthesis, linalg::spectral_radius,
+    refuelling_airframe,
+};
 use nalgebra::DMatrix;
 
 /// The cell of `axis` that holds `x` and the fraction across it (a shared node belongs to
@@ -32,7 +35,8 @@ fn keep(w: &mut Worst, value: f64, v: f64, h: f64) {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = F16::new(NOMINAL_XCG)?;
-    let refuel_model = F16::new(REFUELLING_DESIGN_XCG)?;
+    let refuel_model = refuelling_airframe(1.0)?;
+    let light_model = refuelling_airframe(LIGHT_REFUELLING_MASS_FACTOR)?;
     let grids: [(&[f64], &[f64]); 4] = [
         (&[100.0, 170.0], &[500.0, 8000.0]),
         (&[100.0, 120.0, 170.0], &[500.0, 3000.0, 8000.0]),
@@ -52,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|&h| {
             lattice_v
                 .iter()
-                .map(|&v| node(&model, &refuel_model, v, h))
+                .map(|&v| node(&model, &refuel_model, &light_model, v, h))
                 .collect()
         })
         .collect::<Result<_, _>>()?;
@@ -61,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .map(|&h| {
                 gv.iter()
-                    .map(|&v| node(&model, &refuel_model, v, h))
+                    .map(|&v| node(&model, &refuel_model, &light_model, v, h))
                     .collect()
             })
             .collect::<Result<_, _>>()?;
@@ -71,6 +75,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (|n: &ScheduleNode| &n.paper) as fn(&ScheduleNode) -> &Synthesis,
             ),
             ("refuelling", |n: &ScheduleNode| &n.refuel),
+            ("refuelling light", |n: &ScheduleNode| &n.refuel_light),
         ] {
             let (mut radius, mut k_err, mut alpha_err) =
                 ([(0.0, 0.0, 0.0); 2], [(0.0, 0.0, 0.0); 2], (0.0, 0.0, 0.0));

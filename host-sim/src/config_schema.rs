@@ -160,6 +160,10 @@ fn scenario_default(key: &str) -> Option<&'static str> {
             "[navigation]: the INS's ins.latency_steps; with [dispersion] nav_latency_steps, \
                  that range's upper end; 0 with model = \"ideal\"",
         ),
+        k if k == DERIVED_KEYS[2] => Some(
+            "[receiver] mass_scale times 1 + [gross_mass] report_error (the mass the \
+             receiver's systems report)",
+        ),
         _ => None,
     }
 }

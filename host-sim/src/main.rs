@@ -41,9 +41,7 @@ use host_sim::record::{self, Recording};
 use host_sim::scenario::{ControllerSection, PRESETS, ScenarioFile};
 
 use host_sim::sim::{self, Run};
-use host_sim::synthesis::{
-    self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_DESIGN_XCG, REFUELLING_SPEED_MPS, codegen,
-};
+use host_sim::synthesis::{self, NOMINAL_XCG, REFUELLING_ALTITUDE_M, REFUELLING_SPEED_MPS};
 use host_sim::world::flight::FlightCondition;
 use host_sim::{flight_log, output, paper, pil, plot};
 use ibvs_core::wire::CostUnit;
@@ -459,6 +457,7 @@ fn run(cli: Cli) -> Result<(), AnyError> {
                     config: cfg,
                     camera_position_given: true,
                     nav_latency_given: true,
+                    mass_given: true,
                 };
                 let mut doc = toml::Table::new();
                 doc.insert("controller".into(), toml::Value::Table(section.to_table()));
@@ -602,13 +601,8 @@ fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(),
 
 fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {
     let s = synthesis::nominal()?;
-    let refuel = synthesis::nominal_refuelling()?;
     if let Some(path) = &write_core {
-        let schedule = synthesis::schedule::synthesize_schedule(
-            &F16::new(NOMINAL_XCG)?,
-            &F16::new(REFUELLING_DESIGN_XCG)?,
-        )?;
-        std::fs::write(path, codegen::render(&s, &refuel, &schedule))
+        std::fs::write(path, synthesis::core_gains_module()?)
             .map_err(|e| format!("{}: {e}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }

@@ -408,6 +408,9 @@ pub struct DispersionSection {
     /// `[dispersion.abort]`: where the tanker's breakaway call comes.
     #[serde(skip_serializing_if = "AbortDispersion::is_empty")]
     pub abort: AbortDispersion,
+    /// `[dispersion.gross_mass]`: the error of the gross mass the controller is told.
+    #[serde(skip_serializing_if = "GrossMassDispersion::is_empty")]
+    pub gross_mass: GrossMassDispersion,
 }
 
 /// `[abort]`: the tanker's breakaway call, which the receiver must fly whatever it was doing
@@ -464,6 +467,40 @@ pub struct TurbulenceDispersion {
     /// Dryden scale length, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scale_length_m: Option<[f64; 2]>,
+}
+
+/// `[dispersion.gross_mass]`: the range of `[gross_mass]`'s report error.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrossMassDispersion {
+    /// The reported gross mass over the true one, minus 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report_error: Option<[f64; 2]>,
+}
+
+impl GrossMassDispersion {
+    /// True when not dispersed.
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// `[gross_mass]`: the receiver's gross mass as its fuel-quantity and stores systems report
+/// it to the flight computer, which chooses the refuelling procedure's inner-loop design by
+/// it (`controller.mass_factor`, `docs/conventions.md`, "Two designs by mass").
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrossMassSection {
+    /// The reported gross mass over the true one (`receiver.mass_scale` of the data's),
+    /// minus 1. Default 0: the controller is told the truth.
+    pub report_error: f64,
+}
+
+impl GrossMassSection {
+    /// True when the report is exact (the section may be left out).
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// `[dispersion.tanker_wake]`, `[dispersion.bow_wave]`: the range of the section's strength.
@@ -581,6 +618,9 @@ pub struct ScenarioFile {
     /// The tanker's breakaway call.
     #[serde(skip_serializing_if = "AbortSection::is_empty")]
     pub abort: AbortSection,
+    /// The gross mass the receiver's systems report to the flight computer.
+    #[serde(skip_serializing_if = "GrossMassSection::is_empty")]
+    pub gross_mass: GrossMassSection,
     /// The aircraft's autopilot (`[autopilot]`), flying the surfaces when the controller
     /// flies through it (`controller.inner_loop = "attitude"`): its parameters, each
     /// optional over ArduPlane's defaults and this airframe's rate gains (`docs/models.md`,
@@ -660,6 +700,7 @@ impl Default for ScenarioFile {
                 ins: InsGrade::Tactical.errors(),
             },
             abort: AbortSection::default(),
+            gross_mass: GrossMassSection::default(),
             autopilot: AutopilotParams::default(),
             dispersion: DispersionSection::default(),
         }
@@ -927,6 +968,14 @@ pub mod plant_bounds {
     /// `bow_wave.strength`.
     pub const BOW_WAVE_STRENGTH: PlantBound =
         plant_bound!("bow_wave", "strength", 0.0, 3.0, "0..=3");
+    /// `gross_mass.report_error`.
+    pub const GROSS_MASS_REPORT: PlantBound = plant_bound!(
+        "gross_mass",
+        "report_error",
+        -0.3,
+        0.3,
+        "-0.3..=0.3 (a fraction of the true mass)"
+    );
     /// `camera.mount_roll_error_deg`.
     pub const ROLL: PlantBound =
         plant_bound!("camera", "mount_roll_error_deg", -10.0, 10.0, "-10..=10");
@@ -980,6 +1029,7 @@ macro_rules! plant_keys {
             (&HOSE_DRAG, $($b)* $f.drogue.hose_drag_scale, $d.drogue.hose_drag_scale),
             (&WAKE_STRENGTH, $($b)* $f.tanker_wake.strength, $d.tanker_wake.strength),
             (&BOW_WAVE_STRENGTH, $($b)* $f.bow_wave.strength, $d.bow_wave.strength),
+            (&GROSS_MASS_REPORT, $($b)* $f.gross_mass.report_error, $d.gross_mass.report_error),
             (&ROLL, $($b)* $f.camera.mount_roll_error_deg, $d.camera.mount_roll_error_deg),
             (&YAW, $($b)* $f.camera.mount_yaw_error_deg, $d.camera.mount_yaw_error_deg),
             (&FOCAL, $($b)* $f.camera.focal_error_px, $d.camera.focal_error_px),
@@ -1135,6 +1185,8 @@ macro_rules! receiver_plant_dispersion {
             "aileron_bandwidth_scale = [0.75, 1.25]\n",
             "rudder_bandwidth_scale = [0.75, 1.25]\n",
             "engine_time_constant_scale = [0.8, 1.5]\n",
+            "[dispersion.gross_mass]\n",
+            "report_error = [-0.05, 0.05]\n",
         )
     };
 }
@@ -1797,8 +1849,9 @@ impl ScenarioFile {
 
     /// The controller's configuration for this scenario: the `[controller]` table over the
     /// default, with what the world decides unless the table gives it: the camera where it
-    /// was meant to be (its placement) less the mount error (true minus believed), and the
-    /// installed navigation's latency ([`NavigationSection::installed_latency_steps`]).
+    /// was meant to be (its placement) less the mount error (true minus believed), the
+    /// installed navigation's latency ([`NavigationSection::installed_latency_steps`]) and the
+    /// reported gross mass ([`ScenarioFile::reported_mass_factor`]).
     pub fn controller_config(&self) -> ControllerConfig {
         let section = &self.controller;
         let mut cfg = section.config;
@@ -1817,7 +1870,16 @@ impl ScenarioFile {
         if !section.nav_latency_given {
             cfg.nav_latency_steps = self.navigation.installed_latency_steps();
         }
+        if !section.mass_given {
+            cfg.mass_factor = self.reported_mass_factor() as f32;
+        }
         cfg
+    }
+
+    /// The gross mass the receiver's systems report, a factor of the model data's: its true
+    /// mass (`receiver.mass_scale`) times one plus `gross_mass.report_error`.
+    pub fn reported_mass_factor(&self) -> f64 {
+        self.receiver.plant.mass_scale * (1.0 + self.gross_mass.report_error)
     }
 
     /// The simulator's scenario: the one conversion from a scenario file to what a run
@@ -2170,6 +2232,51 @@ mod tests {
         }
     }
 
+    #[test]
+    fn the_controller_is_told_the_reported_gross_mass_unless_the_file_gives_its_own() {
+        // Each run's controller believes the drawn mass times one plus the drawn report
+        // error (within the preset's 5 %), so both designs are flown across the campaign.
+        let base = ScenarioFile::load("level2").unwrap();
+        assert_eq!(base.controller_config().mass_factor, 1.0);
+        let (mut light, mut first) = (0, 0);
+        for i in 0..200 {
+            let f = base.dispersed(i);
+            let (truth, told) = (
+                f.receiver.plant.mass_scale,
+                f64::from(f.controller_config().mass_factor),
+            );
+            let e = f.gross_mass.report_error;
+            assert!((-0.05..=0.05).contains(&e), "run {i}: {e}");
+            assert!(
+                (told - truth * (1.0 + e)).abs() < 1e-6,
+                "run {i}: {told} {truth} {e}"
+            );
+            if told < f64::from(ibvs_core::config::LIGHT_DESIGN_BELOW_MASS_FACTOR) {
+                light += 1;
+            } else {
+                first += 1;
+            }
+        }
+        assert!(light > 10 && first > 100, "{light} light, {first} first");
+        // Stated in [controller]: believed whatever the receiver weighs.
+        let level2 = PRESETS.iter().find(|p| p.0 == "level2").unwrap().2;
+        let stated =
+            ScenarioFile::parse(&format!("{level2}[controller]\nmass_factor = 1.1\n"), "s")
+                .unwrap();
+        for i in [0, 3, 9] {
+            assert_eq!(stated.dispersed(i).controller_config().mass_factor, 1.1);
+        }
+        // A report the controller refuses is the scenario's named error.
+        let heavy = ScenarioFile::parse(
+            "[receiver]\nmass_scale = 2.0\n[gross_mass]\nreport_error = 0.3\n",
+            "heavy",
+        );
+        let e = heavy
+            .expect_err("2.6 of the design mass is refused")
+            .to_string();
+        assert!(e.contains("mass_factor"), "{e}");
+    }
+
     /// The INS's latency is dispersed; the latency the controller compensates is the
     /// dispersed range's upper end in every run, whatever the run's INS does (the file's
     /// own figure without the dispersion).
@@ -2483,6 +2590,7 @@ mod tests {
             let d = ScenarioFile::load(name).unwrap().dispersion;
             if refuelling.contains(&name) {
                 assert_eq!(d.receiver, receiver.dispersion.receiver, "{name}");
+                assert_eq!(d.gross_mass, receiver.dispersion.gross_mass, "{name}");
                 assert_eq!(d.drogue, world.dispersion.drogue, "{name}");
                 assert_eq!(d.turbulence, world.dispersion.turbulence, "{name}");
                 assert_eq!(d.tanker_wake, world.dispersion.tanker_wake, "{name}");
@@ -2490,7 +2598,7 @@ mod tests {
                 assert_eq!(d.camera, world.dispersion.camera, "{name}");
                 assert_eq!(d.navigation, world.dispersion.navigation, "{name}");
             } else {
-                assert!(d.receiver.is_empty(), "{name}");
+                assert!(d.receiver.is_empty() && d.gross_mass.is_empty(), "{name}");
                 assert!(
                     d.drogue.is_empty()
                         && d.turbulence.is_empty()
@@ -2505,6 +2613,7 @@ mod tests {
         // nominal-level2 is level2 but for the plant.
         let mut plant = ScenarioFile::load("level2").unwrap();
         plant.dispersion.receiver = ReceiverPlantRanges::default();
+        plant.dispersion.gross_mass = GrossMassDispersion::default();
         let nominal = ScenarioFile::load("nominal-level2").unwrap();
         plant.dispersion.drogue = nominal.dispersion.drogue.clone();
         plant.dispersion.turbulence = nominal.dispersion.turbulence.clone();
@@ -2931,15 +3040,15 @@ mod tests {
             let base = ScenarioFile::load(name).unwrap();
             let d = base.dispersion.clone();
             let mut grades = std::collections::BTreeSet::new();
-            let mut lows = [false; 14];
-            let mut highs = [false; 14];
+            let mut lows = [false; 15];
+            let mut highs = [false; 15];
             // Each run's draws, as fractions of their ranges, for the correlations.
-            let mut fractions: Vec<[f64; 14]> = Vec::new();
+            let mut fractions: Vec<[f64; 15]> = Vec::new();
             for i in 0..400 {
                 let f = base.dispersed(i);
                 assert_eq!(f, base.dispersed(i), "{name} run {i}");
                 f.validate().unwrap();
-                let mut fraction = [0.0; 14];
+                let mut fraction = [0.0; 15];
                 for (k, (b, v, _)) in plant_keys!(f, d).into_iter().enumerate() {
                     let r = plant_keys!(base, d)[k].2.unwrap();
                     assert!(r[0] <= v && v <= r[1], "{} = {v} outside {r:?}", b.key);
@@ -2964,8 +3073,8 @@ mod tests {
             // Independent streams: no two keys' draws correlate (|r| < 0.2 over 400 runs,
             // about four standard errors).
             let n = fractions.len() as f64;
-            for a in 0..14 {
-                for b in a + 1..14 {
+            for a in 0..15 {
+                for b in a + 1..15 {
                     let (ma, mb) = (
                         fractions.iter().map(|x| x[a]).sum::<f64>() / n,
                         fractions.iter().map(|x| x[b]).sum::<f64>() / n,

@@ -1,11 +1,12 @@
 //! The gain schedule between its nodes: the core's interpolated gains, applied to the
 //! receiver linearised where they are interpolated, keep every channel of both procedures
-//! stable with margin.
+//! (the refuelling procedure's two designs by mass) stable with margin.
 
 use host_sim::receiver::F16;
 use host_sim::synthesis::schedule::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, node};
 use host_sim::synthesis::{
-    ChannelDesign, NOMINAL_XCG, REFUELLING_DESIGN_XCG, linalg::spectral_radius,
+    ChannelDesign, LIGHT_REFUELLING_MASS_FACTOR, NOMINAL_XCG, linalg::spectral_radius,
+    refuelling_airframe,
 };
 use ibvs_core::inner::ChannelGains;
 use ibvs_core::schedule::{FlightCondition, design_at};
@@ -67,7 +68,8 @@ fn off_grid_points() -> Vec<(f64, f64)> {
 #[test]
 fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995_between_nodes() {
     let model = F16::new(NOMINAL_XCG).expect("model");
-    let refuel_model = F16::new(REFUELLING_DESIGN_XCG).expect("model");
+    let refuel_model = refuelling_airframe(1.0).expect("model");
+    let light_model = refuelling_airframe(LIGHT_REFUELLING_MASS_FACTOR).expect("model");
     let points = off_grid_points();
     assert_eq!(
         points.len(),
@@ -76,7 +78,8 @@ fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995
     );
     let mut worst = (0.0, String::new());
     for (v, h) in points {
-        let truth = node(&model, &refuel_model, v, h).expect("synthesis at the point");
+        let truth =
+            node(&model, &refuel_model, &light_model, v, h).expect("synthesis at the point");
         let d = design_at(FlightCondition {
             true_airspeed_mps: v as f32,
             altitude_m: h as f32,
@@ -103,6 +106,16 @@ fn interpolated_gains_keep_every_channel_stable_with_spectral_radius_below_0_995
                 &truth.refuel.lat,
                 gain_matrix(&d.refuel_lat, &truth.refuel.lat.actuated),
             ),
+            (
+                "refuelling light lon",
+                &truth.refuel_light.lon,
+                gain_matrix(&d.refuel_light_lon, &truth.refuel_light.lon.actuated),
+            ),
+            (
+                "refuelling light lat",
+                &truth.refuel_light.lat,
+                gain_matrix(&d.refuel_light_lat, &truth.refuel_light.lat.actuated),
+            ),
         ] {
             let r = radius(design, &k);
             assert!(
@@ -127,10 +140,11 @@ fn the_interpolated_trim_is_within_half_a_degree_and_0_06_throttle_of_the_true_t
     // corner). A trim error is a bias the integrators take out: half a degree is a few tenths
     // of a metre per second of climb rate, 0.05 throttle about 2 % of thrust, before they do.
     let model = F16::new(NOMINAL_XCG).expect("model");
-    let refuel_model = F16::new(REFUELLING_DESIGN_XCG).expect("model");
+    let refuel_model = refuelling_airframe(1.0).expect("model");
+    let light_model = refuelling_airframe(LIGHT_REFUELLING_MASS_FACTOR).expect("model");
     let (mut worst_alpha, mut worst_throttle) = (0.0_f64, 0.0_f64);
     for (v, h) in off_grid_points() {
-        let truth = node(&model, &refuel_model, v, h)
+        let truth = node(&model, &refuel_model, &light_model, v, h)
             .expect("synthesis")
             .paper
             .trim;

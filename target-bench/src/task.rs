@@ -428,7 +428,7 @@ pub const LOOPS: &[LoopBound] = &[
         function: "ibvs_core::controller::Controller::follow_schedule",
         ordinal: 0,
         source: &["schedule::Blend", "PlantModel"],
-        instructions: 83,
+        instructions: 80,
         iterations: 5,
         reason: "the blend of a 5 x 5 matrix of the lateral predictor's plant model (PlantModel<5, 2, 2>), a row of five an iteration (the index steps 20 bytes up to 100)",
     },

@@ -19,16 +19,17 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// Keys of [`ControllerConfig`] that a scenario derives from its world unless the
 /// `[controller]` table gives them: the camera's believed position (where `[camera]` places
-/// it, less the mount error) and the navigation's latency (the INS's; 0 with ideal
-/// navigation).
-pub const DERIVED_KEYS: [&str; 2] = ["camera.position_body_m", "nav_latency_steps"];
+/// it, less the mount error), the navigation's latency (the INS's; 0 with ideal navigation)
+/// and the gross mass (the receiver's, as `[gross_mass]` says it is reported).
+pub const DERIVED_KEYS: [&str; 3] = ["camera.position_body_m", "nav_latency_steps", "mass_factor"];
 
 /// `[controller]`: the configuration the file gives, and which derived keys it gave.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ControllerSection {
-    /// Every key of the table over [`ControllerConfig::default`]. Its camera position and
-    /// navigation latency are the file's only where [`ControllerSection::camera_position_given`]
-    /// and [`ControllerSection::nav_latency_given`] say so; otherwise the scenario decides them.
+    /// Every key of the table over [`ControllerConfig::default`]. Its camera position,
+    /// navigation latency and gross mass are the file's only where
+    /// [`ControllerSection::camera_position_given`], [`ControllerSection::nav_latency_given`]
+    /// and [`ControllerSection::mass_given`] say so; otherwise the scenario decides them.
     pub config: ControllerConfig,
     /// The table gave `camera.position_body_m`: the controller believes that, whatever
     /// `[camera]` says.
@@ -36,6 +37,9 @@ pub struct ControllerSection {
     /// The table gave `nav_latency_steps`: the controller compensates that, whatever the
     /// INS's latency.
     pub nav_latency_given: bool,
+    /// The table gave `mass_factor`: the controller believes that, whatever the receiver's
+    /// mass.
+    pub mass_given: bool,
 }
 
 impl ControllerSection {
@@ -181,6 +185,7 @@ impl ControllerSection {
             config,
             camera_position_given: given(table, DERIVED_KEYS[0]),
             nav_latency_given: given(table, DERIVED_KEYS[1]),
+            mass_given: given(table, DERIVED_KEYS[2]),
         })
     }
 
@@ -189,10 +194,11 @@ impl ControllerSection {
     pub fn to_table(&self) -> toml::Table {
         let mut t = table_of(&self.config);
         t.iter_mut().for_each(|(_, v)| tidy(v));
-        for (key, given) in DERIVED_KEYS
-            .into_iter()
-            .zip([self.camera_position_given, self.nav_latency_given])
-        {
+        for (key, given) in DERIVED_KEYS.into_iter().zip([
+            self.camera_position_given,
+            self.nav_latency_given,
+            self.mass_given,
+        ]) {
             if !given {
                 remove(&mut t, key);
             }

@@ -150,13 +150,15 @@ fn schedule_text(schedule: &Schedule) -> String {
     for row in &schedule.nodes {
         out.push_str("    [\n");
         for n in row {
-            let (p, r) = (&n.paper, &n.refuel);
+            let (p, r, l) = (&n.paper, &n.refuel, &n.refuel_light);
             let _ = write!(
                 out,
                 "        // {v} m/s, {h} m: trim residual {res:.1e}; closed-loop spectral radii lon {pl:.6}, \
-                 lat {pa:.6}, refuelling lon {rl:.6}, lat {ra:.6}.\n        DesignPoint {{\n{i}    trim: {trim},\n\
+                 lat {pa:.6}, refuelling lon {rl:.6}, lat {ra:.6}, light lon {ll:.6}, lat {la:.6}.\n        \
+                 DesignPoint {{\n{i}    trim: {trim},\n\
                  {i}    engine: {engine},\n{i}    lon: {lon},\n{i}    lat: {lat},\n{i}    refuel_lon: {rlon},\n\
-                 {i}    refuel_lat: {rlat},\n{i}    predict_lon: {plon},\n{i}    predict_lat: {plat},\n{i}}},\n",
+                 {i}    refuel_lat: {rlat},\n{i}    refuel_light_lon: {llon},\n{i}    refuel_light_lat: {llat},\n\
+                 {i}    predict_lon: {plon},\n{i}    predict_lat: {plat},\n{i}}},\n",
                 v = p.trim.speed_mps,
                 h = p.trim.altitude_m,
                 res = p.trim.residual,
@@ -164,12 +166,16 @@ fn schedule_text(schedule: &Schedule) -> String {
                 pa = p.lat.closed_loop_spectral_radius,
                 rl = r.lon.closed_loop_spectral_radius,
                 ra = r.lat.closed_loop_spectral_radius,
+                ll = l.lon.closed_loop_spectral_radius,
+                la = l.lat.closed_loop_spectral_radius,
                 trim = trim_expr(&p.trim, "            "),
                 engine = engine_expr(p),
                 lon = channel_expr(&p.lon, "            "),
                 lat = channel_expr(&p.lat, "            "),
                 rlon = channel_expr(&r.lon, "            "),
                 rlat = channel_expr(&r.lat, "            "),
+                llon = channel_expr(&l.lon, "            "),
+                llat = channel_expr(&l.lat, "            "),
                 plon = predictor_expr(&p.predictor_lon, "            "),
                 plat = predictor_expr(&p.predictor_lat, "            "),
             );
@@ -180,10 +186,11 @@ fn schedule_text(schedule: &Schedule) -> String {
     out
 }
 
-/// The module's full text: the paper's procedure's design `s` and the refuelling
-/// procedure's `refuel` (other weights, on the airframe at its design cg; the tables keep
-/// `s`'s trim, engine and predictor models), and the gain schedule over the docking envelope.
-pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String {
+/// The module's full text: the paper's procedure's design `s`, the refuelling procedure's
+/// `refuel` (other weights, on the airframe at its design cg; the tables keep `s`'s trim,
+/// engine and predictor models) and `light` (the same on the light airframe,
+/// [`super::LIGHT_REFUELLING_MASS_FACTOR`]), and the gain schedule over the docking envelope.
+pub fn render(s: &Synthesis, refuel: &Synthesis, light: &Synthesis, schedule: &Schedule) -> String {
     let t = &s.trim;
     let w = &s.weights;
     let mut out = String::new();
@@ -276,6 +283,26 @@ pub fn render(s: &Synthesis, refuel: &Synthesis, schedule: &Schedule) -> String 
         "REFUEL_LAT",
         "Lateral channel of the refuelling procedure: aileron and rudder.",
         &refuel.lat,
+    ));
+    let _ = write!(
+        out,
+        "\n/// The gross mass of the refuelling procedure's light design, a factor of the model \
+         data's (the design above: 1).\n\
+         pub const REFUEL_LIGHT_MASS_FACTOR: f32 = {};\n\n\
+         /// The refuelling procedure's light design: the same weights and cg on the airframe at \
+         `REFUEL_LIGHT_MASS_FACTOR` of the mass.\n",
+        lit(super::LIGHT_REFUELLING_MASS_FACTOR)
+    );
+    out.push_str(&channel(
+        "REFUEL_LIGHT_LON",
+        "Longitudinal channel of the refuelling procedure's light design.",
+        &light.lon,
+    ));
+    out.push('\n');
+    out.push_str(&channel(
+        "REFUEL_LIGHT_LAT",
+        "Lateral channel of the refuelling procedure's light design.",
+        &light.lat,
     ));
     out.push_str(&schedule_text(schedule));
     out

@@ -49,6 +49,16 @@ pub const NOMINAL_XCG: f64 = 0.35;
 /// docs/conventions.md, "Inner loops for refuelling"; docs/scenarios.md, "Measured: the
 /// refuelling presets".
 pub const REFUELLING_DESIGN_XCG: f64 = 0.40;
+/// The gross mass, as a factor of the model data's, of the refuelling procedure's second
+/// design: the light airframe's. The first is the data's own mass (factor 1). The losses of
+/// control left in level II air were all on light airframes (mass factor 0.85..0.93, mostly
+/// aft cg): a pitch oscillation growing from the engage, the elevator loop's gain too high
+/// for a lighter aircraft's faster heave. Designed at 0.9 for every mass, the gains removed
+/// most of them but aimed worse on the heavier airframes (`docs/conventions.md`, "Inner
+/// loops for refuelling", "Two designs by mass"); the core flies this design below the
+/// mass midway between the two (`ibvs_core::config::LIGHT_DESIGN_BELOW_MASS_FACTOR`),
+/// chosen by the configuration's gross mass.
+pub const LIGHT_REFUELLING_MASS_FACTOR: f64 = 0.9;
 /// Control period the core runs at, s.
 pub const CONTROL_PERIOD_S: f64 = 0.02;
 /// Probe tip (and camera, paper Assumption 3) relative to the CG, body axes, m
@@ -526,15 +536,54 @@ pub fn nominal() -> Result<Synthesis, SynthesisError> {
 /// arm is the probe tip's either way (the tip camera's position, and the point the
 /// refuelling procedure tracks).
 pub fn nominal_refuelling() -> Result<Synthesis, SynthesisError> {
-    design_at(REFUELLING_DESIGN_XCG, &DesignWeights::refuelling())
+    design_on(&refuelling_airframe(1.0)?, &DesignWeights::refuelling())
+}
+
+/// The refuelling procedure's light design ([`LIGHT_REFUELLING_MASS_FACTOR`]) at the
+/// refuelling condition: [`nominal_refuelling`] on the lighter airframe.
+pub fn light_refuelling() -> Result<Synthesis, SynthesisError> {
+    design_on(
+        &refuelling_airframe(LIGHT_REFUELLING_MASS_FACTOR)?,
+        &DesignWeights::refuelling(),
+    )
+}
+
+/// The airframe the refuelling procedure's gains are designed on: the nominal one at
+/// [`REFUELLING_DESIGN_XCG`], its mass `mass_factor` times the data's (1 for the first
+/// design, [`LIGHT_REFUELLING_MASS_FACTOR`] for the light one).
+pub fn refuelling_airframe(mass_factor: f64) -> Result<F16, ModelError> {
+    let mut plant = crate::receiver::ReceiverPlant::NOMINAL;
+    plant.mass_scale = mass_factor;
+    F16::with_plant(REFUELLING_DESIGN_XCG, &plant)
+}
+
+/// The core's generated gains module (`core/src/gains.rs`): the paper's design, both
+/// refuelling designs and the gain schedule, as `host-sim gains --write-core` writes it and
+/// the freshness test compares it.
+pub fn core_gains_module() -> Result<String, Box<dyn std::error::Error>> {
+    let schedule = schedule::synthesize_schedule(
+        &F16::new(NOMINAL_XCG)?,
+        &refuelling_airframe(1.0)?,
+        &refuelling_airframe(LIGHT_REFUELLING_MASS_FACTOR)?,
+    )?;
+    Ok(codegen::render(
+        &nominal()?,
+        &nominal_refuelling()?,
+        &light_refuelling()?,
+        &schedule,
+    ))
 }
 
 /// The synthesis at the refuelling condition, camera at the probe tip, on the airframe at
 /// cg `xcg`.
 fn design_at(xcg: f64, weights: &DesignWeights) -> Result<Synthesis, SynthesisError> {
-    let model = F16::new(xcg)?;
+    design_on(&F16::new(xcg)?, weights)
+}
+
+/// The synthesis at the refuelling condition, camera at the probe tip, on `model`.
+fn design_on(model: &F16, weights: &DesignWeights) -> Result<Synthesis, SynthesisError> {
     synthesize(
-        &model,
+        model,
         REFUELLING_SPEED_MPS,
         REFUELLING_ALTITUDE_M,
         CONTROL_PERIOD_S,

@@ -1,4 +1,4 @@
-//! The gain schedule's synthesis: the whole design (trim, both procedures' gains, engine and
+//! The gain schedule's synthesis: the whole design (trim, every procedure's gains, engine and
 //! predictor models) at every node of the docking envelope's grid, the data the core's
 //! `ibvs_core::schedule` interpolates.
 //!
@@ -36,6 +36,8 @@ pub struct ScheduleNode {
     pub paper: Synthesis,
     /// With [`DesignWeights::refuelling`], at [`super::REFUELLING_DESIGN_XCG`].
     pub refuel: Synthesis,
+    /// The same on the light airframe ([`super::LIGHT_REFUELLING_MASS_FACTOR`]).
+    pub refuel_light: Synthesis,
 }
 
 /// Every node, `nodes[altitude index][speed index]`.
@@ -57,12 +59,14 @@ pub struct ScheduleError {
     pub source: SynthesisError,
 }
 
-/// Synthesises both designs at one condition: the paper's on the receiver `model`, the
-/// refuelling procedure's on `refuel_model` (the airframe at its design cg,
-/// [`super::REFUELLING_DESIGN_XCG`]); the node's trim and models are `model`'s.
+/// Synthesises every design at one condition: the paper's on the receiver `model`, the
+/// refuelling procedure's on `refuel_model` and `light_model` (the airframe at its design
+/// cg, [`super::REFUELLING_DESIGN_XCG`], at its two design masses); the node's trim and
+/// models are `model`'s.
 pub fn node(
     model: &F16,
     refuel_model: &F16,
+    light_model: &F16,
     speed_mps: f64,
     altitude_m: f64,
 ) -> Result<ScheduleNode, ScheduleError> {
@@ -84,18 +88,23 @@ pub fn node(
     Ok(ScheduleNode {
         paper: design(model, &DesignWeights::default())?,
         refuel: design(refuel_model, &DesignWeights::refuelling())?,
+        refuel_light: design(light_model, &DesignWeights::refuelling())?,
     })
 }
 
 /// The schedule for the receiver `model` (the nominal one for the core's tables), the
-/// refuelling gains designed on `refuel_model` (see [`node`]).
-pub fn synthesize_schedule(model: &F16, refuel_model: &F16) -> Result<Schedule, ScheduleError> {
+/// refuelling gains designed on `refuel_model` and `light_model` (see [`node`]).
+pub fn synthesize_schedule(
+    model: &F16,
+    refuel_model: &F16,
+    light_model: &F16,
+) -> Result<Schedule, ScheduleError> {
     let nodes = SCHEDULE_ALTITUDES_M
         .iter()
         .map(|&h| {
             SCHEDULE_SPEEDS_MPS
                 .iter()
-                .map(|&v| node(model, refuel_model, v, h))
+                .map(|&v| node(model, refuel_model, light_model, v, h))
                 .collect::<Result<Vec<_>, _>>()
         })
         .collect::<Result<Vec<_>, _>>()?;
