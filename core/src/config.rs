@@ -372,11 +372,12 @@ fn holds_trim(a: &ActuatorLimits) -> bool {
 /// either design's model is as far from the aircraft as the other's.
 pub const LIGHT_DESIGN_BELOW_MASS_FACTOR: f32 = 0.5 * (gains::REFUEL_LIGHT_MASS_FACTOR + 1.0);
 
-/// The smallest gross-mass factor accepted: below any airframe of the type (the F-16's empty
-/// mass is about 0.92 of the design's); a value under it is a unit or entry mistake.
+/// The smallest gross-mass factor accepted: well below any airframe of the type (an F-16C
+/// without fuel is about 0.96 of the design's 20,500 lb: `docs/models.md`, "Receiver plant
+/// dispersions"); a value under it is a unit or entry mistake.
 pub const MIN_MASS_FACTOR: f32 = 0.5;
 /// The largest gross-mass factor accepted: above any airframe of the type (its maximum
-/// take-off mass is about 2.1 of the design's).
+/// take-off mass, 37,500 lb, is about 1.83 of the design's).
 pub const MAX_MASS_FACTOR: f32 = 2.5;
 
 /// One hour, s: the longest dwell, timeout or limit a configuration may give.

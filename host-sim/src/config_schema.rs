@@ -60,8 +60,12 @@ pub struct Schema {
 }
 
 /// The settings whose name carries no unit suffix: dimensionless, or a choice.
-const UNITLESS: [(&str, &str); 16] = [
+const UNITLESS: [(&str, &str); 17] = [
     ("procedure", "choice: \"refuelling\" | \"paper\""),
+    (
+        "mass_factor",
+        "1 (the gross mass over the design airframe's 9,295 kg)",
+    ),
     ("law", "choice: \"ibvs\" | \"pbvs\""),
     ("inner_loop", "choice: \"surfaces\" | \"attitude\""),
     ("attitude.damping", "1 (damping ratio)"),
@@ -384,7 +388,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 57] = [
+        let cases: [(&str, &str); 58] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -587,6 +591,8 @@ mod tests {
                 "[attitude]\nforward_bandwidth_radps = 20.0",
             ),
             ("attitude.damping", "[attitude]\ndamping = 2.5"),
+            // A mass in kilograms where the factor belongs.
+            ("mass_factor", "mass_factor = 9295.0"),
             ("attitude.max_bank_rad", "[attitude]\nmax_bank_rad = 0.8"),
             (
                 "attitude.max_pitch_offset_rad",
