@@ -40,7 +40,7 @@ use crate::estimator::{
 use crate::frames::{TargetEstimate, VelocityRe};
 use crate::gains::CONTROL_PERIOD_S;
 use crate::inner::TrimPoint;
-use crate::inner::{Channel, EngineEstimate};
+use crate::inner::{Channel, ChannelGains, EngineEstimate};
 use crate::kinematics::{lever_arm_lat, lever_arm_lon, point_velocity_tanker_mps};
 use crate::measurement::{
     CameraMeasurement, FreezeDetector, ImageFeature, LimitBits, MeasurementError, SequenceCheck,
@@ -402,6 +402,23 @@ pub struct Controller {
     counters: Counters,
 }
 
+/// The inner loops' gains that configuration `cfg` flies from design `d`: each procedure its
+/// own (`gains`), the refuelling procedure one of two by the receiver's gross mass, the light
+/// airframe's below [`LIGHT_DESIGN_BELOW_MASS_FACTOR`]. The one choice of them, for the
+/// controller and for the simulator's analysis of the loop it flies.
+pub fn inner_gains<'a>(
+    d: &'a DesignPoint,
+    cfg: &ControllerConfig,
+) -> (&'a ChannelGains<5, 2, 2>, &'a ChannelGains<5, 1, 2>) {
+    match cfg.procedure {
+        Procedure::Paper => (&d.lon, &d.lat),
+        Procedure::Refuelling if cfg.mass_factor < LIGHT_DESIGN_BELOW_MASS_FACTOR => {
+            (&d.refuel_light_lon, &d.refuel_light_lat)
+        }
+        Procedure::Refuelling => (&d.refuel_lon, &d.refuel_lat),
+    }
+}
+
 impl Controller {
     /// Control period, s: the one the generated gains were synthesised for.
     pub const PERIOD_S: f32 = CONTROL_PERIOD_S;
@@ -487,15 +504,7 @@ impl Controller {
             Procedure::Paper => cfg.camera.position_body_m,
             Procedure::Refuelling => cfg.probe_tip_body_m,
         };
-        // Each procedure flies its own inner-loop design (`gains`); the refuelling procedure
-        // one of two, by the receiver's gross mass.
-        let (lon, lat) = match cfg.procedure {
-            Procedure::Paper => (&d.lon, &d.lat),
-            Procedure::Refuelling if cfg.mass_factor < LIGHT_DESIGN_BELOW_MASS_FACTOR => {
-                (&d.refuel_light_lon, &d.refuel_light_lat)
-            }
-            Procedure::Refuelling => (&d.refuel_lon, &d.refuel_lat),
-        };
+        let (lon, lat) = inner_gains(d, cfg);
         let u = d.trim.command();
         self.lon
             .set_design(lon, &lever_arm_lon(tracked, d.trim.theta_rad), [u[0], u[1]]);

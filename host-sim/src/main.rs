@@ -99,6 +99,14 @@ enum Command {
         /// Print each node's worst figures (over the cgs and latencies) instead of every point.
         #[arg(long)]
         by_node: bool,
+        /// The airframe's gross mass, a factor of the design's, and the configuration's
+        /// (`mass_factor`: the refuelling procedure flies its light design below 0.95).
+        #[arg(long, default_value_t = 1.0, value_parser = parse_mass_factor)]
+        mass_factor: f64,
+        /// The configuration's gross mass when it is not the airframe's (a mass set wrong):
+        /// which design flies the airframe of `--mass-factor`.
+        #[arg(long, value_parser = parse_mass_factor)]
+        configured_mass_factor: Option<f64>,
     },
     /// Fly one docking. Options given here override the scenario's values.
     Dock {
@@ -323,7 +331,15 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             paper,
             design_latency,
             by_node,
-        } => margins(paper, design_latency, by_node),
+            mass_factor,
+            configured_mass_factor,
+        } => margins(
+            paper,
+            design_latency,
+            by_node,
+            mass_factor,
+            configured_mass_factor.unwrap_or(mass_factor),
+        ),
         Command::Dock {
             scenario,
             controller,
@@ -581,7 +597,13 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
     Ok(())
 }
 
-fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(), AnyError> {
+fn margins(
+    paper: bool,
+    design_latency: Option<u8>,
+    by_node: bool,
+    mass_factor: f64,
+    configured_mass_factor: f64,
+) -> Result<(), AnyError> {
     let mut cfg = if paper {
         ControllerConfig::paper()
     } else {
@@ -590,13 +612,27 @@ fn margins(paper: bool, design_latency: Option<u8>, by_node: bool) -> Result<(),
     if let Some(d) = design_latency {
         cfg.nav_latency_steps = d;
     }
-    let grid = synthesis::margins::grid(&cfg)?;
+    cfg.mass_factor = configured_mass_factor as f32;
+    cfg.validate()?;
+    let grid = synthesis::margins::grid_on(&cfg, mass_factor)?;
     if by_node {
         print!("{}", synthesis::margins::node_table(&grid));
     } else {
         print!("{}", synthesis::margins::table(&grid));
     }
     Ok(())
+}
+
+/// A gross-mass factor the receiver's plant factors accept (`receiver.mass_scale`).
+fn parse_mass_factor(s: &str) -> Result<f64, String> {
+    let m: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if (0.5..=2.0).contains(&m) {
+        Ok(m)
+    } else {
+        Err(format!(
+            "{m} is outside 0.5..=2 (a factor of the design's mass)"
+        ))
+    }
 }
 
 fn gains(json: bool, write_core: Option<PathBuf>) -> Result<(), AnyError> {

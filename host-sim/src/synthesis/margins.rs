@@ -65,6 +65,7 @@
 
 use std::f64::consts::PI;
 
+use ibvs_core::controller::inner_gains;
 use ibvs_core::kinematics::{lever_arm_lat, lever_arm_lon};
 use ibvs_core::predictor::PlantModel;
 use ibvs_core::schedule::{DesignPoint, FlightCondition, ScheduleError, design_at};
@@ -74,7 +75,7 @@ use nalgebra::{Complex, DMatrix, DVector};
 use super::linalg::{spectral_radius, zoh};
 use super::{CONTROL_PERIOD_S, with_actuators};
 use crate::linearize::linearize;
-use crate::receiver::{F16, ModelError, TrimError};
+use crate::receiver::{F16, ModelError, ReceiverPlant, TrimError};
 
 /// The plant's inputs, in order.
 pub const INPUTS: [&str; 4] = ["elevator", "throttle", "aileron", "rudder"];
@@ -293,10 +294,11 @@ impl FlownController {
     /// The controller `cfg` configures, flying the design `d` (as `Controller::set_design`
     /// builds its loops).
     pub fn new(d: &DesignPoint, cfg: &ControllerConfig) -> Self {
-        let (tracked, lon, lat) = match cfg.procedure {
-            Procedure::Paper => (cfg.camera.position_body_m, &d.lon, &d.lat),
-            Procedure::Refuelling => (cfg.probe_tip_body_m, &d.refuel_lon, &d.refuel_lat),
+        let tracked = match cfg.procedure {
+            Procedure::Paper => cfg.camera.position_body_m,
+            Procedure::Refuelling => cfg.probe_tip_body_m,
         };
+        let (lon, lat) = inner_gains(d, cfg);
         let c_tracked = tracked_output(d, cfg.procedure, tracked);
         Self {
             lon: [
@@ -340,7 +342,19 @@ impl TruePlant {
     /// The F-16 at cg `xcg` trimmed straight and level at `speed_mps`, `altitude_m`,
     /// linearised, with its nominal actuators, discretised at the control period.
     pub fn new(xcg: f64, speed_mps: f64, altitude_m: f64) -> Result<Self, MarginsError> {
-        let model = F16::new(xcg)?;
+        Self::with_mass(xcg, 1.0, speed_mps, altitude_m)
+    }
+
+    /// [`TruePlant::new`] on the airframe at `mass_factor` of the data's mass.
+    pub fn with_mass(
+        xcg: f64,
+        mass_factor: f64,
+        speed_mps: f64,
+        altitude_m: f64,
+    ) -> Result<Self, MarginsError> {
+        let mut factors = ReceiverPlant::NOMINAL;
+        factors.mass_scale = mass_factor;
+        let model = F16::with_plant(xcg, &factors)?;
         let trim = model.trim_straight_level(speed_mps, altitude_m)?;
         let lin = linearize(&model, &trim);
         let (ac, bc) = with_actuators(&lin.a, &lin.b, &ACTUATED, model.actuators().bandwidth_radps);
@@ -870,8 +884,14 @@ pub const GRID_LATENCY_STEPS: [usize; 3] = [0, 1, 2];
 
 /// The margins at every schedule node (`[altitude][speed]` order flattened, speed fastest),
 /// true cg in [`GRID_XCG`], true latency in [`GRID_LATENCY_STEPS`], of the controller `cfg`
-/// configures.
+/// configures, on the design's airframe (mass factor 1).
 pub fn grid(cfg: &ControllerConfig) -> Result<Vec<GridPoint>, MarginsError> {
+    grid_on(cfg, 1.0)
+}
+
+/// [`grid`] on the airframe at `mass_factor` of the data's mass (the controller flies the
+/// design its own `mass_factor` chooses).
+pub fn grid_on(cfg: &ControllerConfig, mass_factor: f64) -> Result<Vec<GridPoint>, MarginsError> {
     use rayon::prelude::*;
     let nodes: Vec<(f64, f64, f64)> = super::schedule::SCHEDULE_ALTITUDES_M
         .iter()
@@ -886,7 +906,7 @@ pub fn grid(cfg: &ControllerConfig) -> Result<Vec<GridPoint>, MarginsError> {
         .map(|&(v, h, xcg)| {
             let design = node_design(v, h)?;
             let controller = FlownController::new(&design, cfg);
-            let plant = TruePlant::new(xcg, v, h)?;
+            let plant = TruePlant::with_mass(xcg, mass_factor, v, h)?;
             Ok(GRID_LATENCY_STEPS
                 .iter()
                 .map(|&d| GridPoint {
