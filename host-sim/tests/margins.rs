@@ -109,12 +109,20 @@ fn core_flight(lp: &FlownLoop<'_>, cfg: &ControllerConfig, sign: f64) -> Vec<([f
     };
     let node = node_design(speed, altitude).expect("a schedule node");
     let trim = node.trim.command();
-    let at = station_frame(cfg, node.trim.theta_rad);
+    // The navigation's perturbations are from the schedule's trim: the true airframe's own
+    // (another cg) is a constant offset, which the core's exact kinematics see (the
+    // analysed loop linearises them there) and which cancels in the flights' odd part. The
+    // drogue is at the station as the aircraft at its own trim sees it.
+    let mut offset = [0.0; 9];
+    offset[0] = lp.plant.trim_theta_rad - f64::from(node.trim.theta_rad);
+    offset[2] = lp.plant.trim_alpha_rad - f64::from(node.trim.alpha_rad);
+    let with_offset = |m: &[f64; 9]| -> [f64; 9] { core::array::from_fn(|i| m[i] + offset[i]) };
+    let at = station_frame(cfg, lp.plant.trim_theta_rad as f32);
     let mut ctl = Controller::new(*cfg).expect("a valid configuration");
     // Standby at the node: the flight loop loads the node's design after the step.
     let standby = ControllerInput {
         measurement: frame(1, at),
-        nav: nav_sample(&[0.0; 9], condition),
+        nav: nav_sample(&offset, condition),
         probe_contact: false,
         autopilot_ready: true,
         request: ModeRequest::None,
@@ -133,11 +141,14 @@ fn core_flight(lp: &FlownLoop<'_>, cfg: &ControllerConfig, sign: f64) -> Vec<([f
     };
     let out = ctl.step(&engage);
     ctl.follow_schedule();
-    assert_eq!(
-        out.command.as_array(),
-        trim,
-        "engaged at the trim, the trim"
-    );
+    if offset == [0.0; 9] {
+        // (At another cg the offset is a constant the engaged loop answers; it cancels.)
+        assert_eq!(
+            out.command.as_array(),
+            trim,
+            "engaged at the trim, the trim"
+        );
+    }
 
     let measured = |x: &DVector<f64>| -> [f64; 9] { core::array::from_fn(|k| x[MEASURED[k]]) };
     let mut x = DVector::from_column_slice(&X0) * sign;
@@ -148,7 +159,7 @@ fn core_flight(lp: &FlownLoop<'_>, cfg: &ControllerConfig, sign: f64) -> Vec<([f
         let late = line.pop_front().expect("the sample just pushed");
         let input = ControllerInput {
             measurement: frame(3 + k as u32, at),
-            nav: nav_sample(&late, condition),
+            nav: nav_sample(&with_offset(&late), condition),
             probe_contact: false,
             autopilot_ready: true,
             request: ModeRequest::None,
@@ -222,7 +233,7 @@ fn the_analysed_loop_is_the_flown_loop() {
         (&paper, 145.0, 3000.0, 0.30, 1),
     ] {
         let plant = TruePlant::new(xcg, speed, altitude).unwrap();
-        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), cfg);
+        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), cfg, &plant);
         let lp = FlownLoop {
             plant: &plant,
             controller: &controller,
@@ -279,37 +290,37 @@ fn the_analysed_loop_is_the_flown_loop() {
 /// schedule's order (`[altitude][speed]`, speed fastest). 45 deg needs 0.828.
 const DOCUMENTED_WORST: [[f64; 7]; 16] = [
     // 100 m/s, 500 m
-    [0.511, 0.635, 0.579, 1.314, 0.511, 0.569, 0.494],
+    [0.511, 0.635, 0.612, 1.316, 0.511, 0.599, 0.494],
     // 120 m/s, 500 m
-    [0.479, 0.636, 0.625, 1.184, 0.479, 0.552, 0.462],
+    [0.479, 0.636, 0.627, 1.182, 0.479, 0.578, 0.462],
     // 145 m/s, 500 m
-    [0.446, 0.637, 0.782, 1.062, 0.446, 0.602, 0.422],
+    [0.446, 0.637, 0.739, 1.060, 0.446, 0.597, 0.422],
     // 170 m/s, 500 m
-    [0.421, 0.637, 0.813, 0.954, 0.421, 0.632, 0.384],
+    [0.421, 0.637, 0.812, 0.956, 0.421, 0.636, 0.384],
     // 100 m/s, 3000 m
-    [0.522, 0.641, 0.573, 1.396, 0.522, 0.552, 0.420],
+    [0.523, 0.641, 0.625, 1.405, 0.522, 0.587, 0.419],
     // 120 m/s, 3000 m
-    [0.497, 0.644, 0.556, 1.259, 0.497, 0.535, 0.467],
+    [0.497, 0.644, 0.589, 1.261, 0.497, 0.583, 0.467],
     // 145 m/s, 3000 m
-    [0.462, 0.643, 0.630, 1.136, 0.462, 0.543, 0.436],
+    [0.462, 0.643, 0.620, 1.134, 0.462, 0.560, 0.436],
     // 170 m/s, 3000 m
-    [0.435, 0.644, 0.770, 1.033, 0.435, 0.607, 0.405],
+    [0.435, 0.644, 0.728, 1.031, 0.435, 0.594, 0.405],
     // 100 m/s, 5500 m
-    [0.491, 0.652, 0.602, 1.445, 0.491, 0.554, 0.482],
+    [0.492, 0.652, 0.618, 1.470, 0.492, 0.595, 0.479],
     // 120 m/s, 5500 m
-    [0.509, 0.653, 0.536, 1.340, 0.508, 0.526, 0.464],
+    [0.509, 0.653, 0.594, 1.354, 0.508, 0.568, 0.464],
     // 145 m/s, 5500 m
-    [0.484, 0.655, 0.541, 1.209, 0.484, 0.510, 0.438],
+    [0.484, 0.655, 0.571, 1.211, 0.484, 0.560, 0.438],
     // 170 m/s, 5500 m
-    [0.452, 0.652, 0.618, 1.111, 0.452, 0.534, 0.412],
+    [0.452, 0.652, 0.603, 1.110, 0.452, 0.548, 0.412],
     // 100 m/s, 8000 m
-    [0.527, 0.658, 0.515, 1.410, 0.526, 0.499, 0.475],
+    [0.528, 0.658, 0.537, 1.499, 0.527, 0.522, 0.498],
     // 120 m/s, 8000 m
-    [0.477, 0.668, 0.560, 1.403, 0.477, 0.527, 0.463],
+    [0.478, 0.668, 0.597, 1.438, 0.477, 0.578, 0.460],
     // 145 m/s, 8000 m
-    [0.497, 0.667, 0.502, 1.289, 0.496, 0.498, 0.432],
+    [0.497, 0.667, 0.568, 1.306, 0.496, 0.552, 0.432],
     // 170 m/s, 8000 m
-    [0.477, 0.667, 0.520, 1.188, 0.477, 0.489, 0.410],
+    [0.477, 0.667, 0.554, 1.191, 0.477, 0.544, 0.410],
 ];
 
 /// The 6 dB / 45 deg requirement where it holds, and a regression guard where it does not:
@@ -360,7 +371,7 @@ fn the_loop_is_stable_across_each_inputs_disk_gain_range() {
     let cfg = flown_config();
     for (speed, altitude, xcg, latency) in [(170.0, 500.0, 0.40, 2), (120.0, 3000.0, 0.35, 1)] {
         let plant = TruePlant::new(xcg, speed, altitude).unwrap();
-        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), &cfg);
+        let controller = FlownController::new(&node_design(speed, altitude).unwrap(), &cfg, &plant);
         let lp = FlownLoop {
             plant: &plant,
             controller: &controller,
@@ -405,11 +416,13 @@ fn the_design_loop_meets_45_deg_and_the_flown_loop_does_not() {
     for input in lon.input.iter().chain(lat.input.iter()) {
         assert!(input.meets_6db_45deg(), "{measured:?}");
     }
+    let plant = TruePlant::new(0.40, 120.0, 3000.0).unwrap();
     let flown = FlownLoop {
-        plant: &TruePlant::new(0.40, 120.0, 3000.0).unwrap(),
+        plant: &plant,
         controller: &FlownController::new(
             &node_design(120.0, 3000.0).unwrap(),
             &ControllerConfig::default(),
+            &plant,
         ),
         true_latency: 0,
     }
@@ -427,17 +440,15 @@ fn the_design_loop_meets_45_deg_and_the_flown_loop_does_not() {
 }
 
 /// On the light airframes the refuelling procedure flies its light design because, in the
-/// linear loop as flown, it is the more stable there; neither is stable everywhere. Over the
-/// grid (16 nodes, cg 0.30..0.40, latency 0..2), an oscillation of the flown loop at about
-/// 1.8 rad/s (the design loop has none: the flown loop's predictor, engine estimate and
-/// kinematics are the design airframe's, at its trim) grows on light airframes at cg 0.40,
-/// most at the slow, high corner. Measured (points with a spectral radius of at least 1, the
-/// largest radius): mass 0.85, first design 69 points and 1.0165 (growing by e in 1.2 s at
-/// 100 m/s, 8,000 m), light design 36 and 1.0083 (2.4 s); mass 0.90, first 26 and 1.0095,
-/// light 9 and 1.0021. On the design's own mass the first design has none (largest
-/// 0.9958).
+/// linear loop as flown, the first design is not stable there everywhere and the light one
+/// is. Measured over the grid (16 nodes, cg 0.30..0.40, latency 0..2; points with a spectral
+/// radius of at least 1, the largest radius): mass 0.85, first design 21 points and 1.0121
+/// (at the slow, high nodes, cg 0.40: an oscillation near 1.8 rad/s), light design none
+/// (0.9960; worst elevator disk margin 0.364, lateral channel 0.268); mass 0.90, first 3
+/// points and 1.0048, light none (0.9950). On the design's own mass the first design has
+/// none (0.9951).
 #[test]
-fn on_light_airframes_the_light_design_leaves_fewer_divergent_points_than_the_first() {
+fn on_light_airframes_the_light_design_is_stable_at_every_point_and_the_first_is_not() {
     let stats = |airframe: f64, configured: f32| {
         let mut cfg = flown_config();
         cfg.mass_factor = configured;
@@ -451,10 +462,8 @@ fn on_light_airframes_the_light_design_leaves_fewer_divergent_points_than_the_fi
     for airframe in [0.85, 0.9] {
         let (first, light) = (stats(airframe, 1.0), stats(airframe, airframe as f32));
         eprintln!("mass {airframe}: first design {first:?}, light design {light:?}");
-        assert!(
-            light.0 < first.0 && light.1 < first.1,
-            "mass {airframe}: light {light:?} against first {first:?}"
-        );
+        assert_eq!(light.0, 0, "mass {airframe}: light design {light:?}");
+        assert!(first.0 > 0, "mass {airframe}: first design {first:?}");
     }
     let (unstable, largest) = stats(1.0, 1.0);
     assert_eq!(

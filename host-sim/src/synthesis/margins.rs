@@ -227,8 +227,13 @@ fn predictor<const NM: usize, const NE: usize, const NU: usize>(
     (phi, gamma)
 }
 
-/// What the integrators hold, linearised at the trim of `d`: rows `[down, forward, right]`
-/// over the ten design states `[theta, V, alpha, q, P, psi, phi, beta, p, r]`.
+/// What the integrators hold, rows `[down, forward, right]` over the ten design states
+/// `[theta, V, alpha, q, P, psi, phi, beta, p, r]`: the paper's procedure's linear output at
+/// the trim of `d`; the refuelling procedure's exact kinematics linearised where the aircraft
+/// flies, at the true airframe's trim `plant` (the navigation's perturbations are from the
+/// schedule's trim, so the kinematics the core evaluates at the schedule's trim plus them are
+/// at the true state; an airframe of another mass or cg trims elsewhere: at 100 m/s and
+/// 8,000 m, 17.1° of angle of attack for the design's, 13.9° at 0.85 of its mass).
 ///
 /// The paper's procedure integrates the design's output `C x` of the tracked point (the
 /// generated `c_cg` with the lever arm), block by block. The refuelling procedure integrates
@@ -238,7 +243,12 @@ fn predictor<const NM: usize, const NE: usize, const NU: usize>(
 /// smaller), and the tip's lateral offset `y` couples the roll and yaw rates into the
 /// vertical and forward velocities (`omega x p`: down `+cos(theta) y p + sin(theta) y r`,
 /// forward `+sin(theta) y p - cos(theta) y r`), which the channels' design leaves out.
-fn tracked_output(d: &DesignPoint, procedure: Procedure, p_body_m: [f32; 3]) -> DMatrix<f64> {
+fn tracked_output(
+    d: &DesignPoint,
+    procedure: Procedure,
+    p_body_m: [f32; 3],
+    plant: &TruePlant,
+) -> DMatrix<f64> {
     let mut c = DMatrix::zeros(3, 10);
     match procedure {
         Procedure::Paper => {
@@ -248,11 +258,7 @@ fn tracked_output(d: &DesignPoint, procedure: Procedure, p_body_m: [f32; 3]) -> 
             c.view_mut((2, 5), (1, 5)).copy_from(&lat);
         }
         Procedure::Refuelling => {
-            let (v, th, al) = (
-                f64::from(d.trim.speed_mps),
-                f64::from(d.trim.theta_rad),
-                f64::from(d.trim.alpha_rad),
-            );
+            let (v, th, al) = (plant.speed_mps, plant.trim_theta_rad, plant.trim_alpha_rad);
             let p = p_body_m.map(f64::from);
             let y = p[1];
             let (cg, sg) = ((th - al).cos(), (th - al).sin());
@@ -292,14 +298,14 @@ fn tracked_output(d: &DesignPoint, procedure: Procedure, p_body_m: [f32; 3]) -> 
 
 impl FlownController {
     /// The controller `cfg` configures, flying the design `d` (as `Controller::set_design`
-    /// builds its loops).
-    pub fn new(d: &DesignPoint, cfg: &ControllerConfig) -> Self {
+    /// builds its loops) on `plant` (where its refuelling kinematics are linearised).
+    pub fn new(d: &DesignPoint, cfg: &ControllerConfig, plant: &TruePlant) -> Self {
         let tracked = match cfg.procedure {
             Procedure::Paper => cfg.camera.position_body_m,
             Procedure::Refuelling => cfg.probe_tip_body_m,
         };
         let (lon, lat) = inner_gains(d, cfg);
-        let c_tracked = tracked_output(d, cfg.procedure, tracked);
+        let c_tracked = tracked_output(d, cfg.procedure, tracked, plant);
         Self {
             lon: [
                 mat(&lon.k_state),
@@ -332,6 +338,10 @@ pub struct TruePlant {
     pub speed_mps: f64,
     /// Altitude, m.
     pub altitude_m: f64,
+    /// Its trim's pitch, rad.
+    pub trim_theta_rad: f64,
+    /// Its trim's angle of attack, rad.
+    pub trim_alpha_rad: f64,
     /// Discrete state matrix: 10 design coordinates, then elevator, aileron, rudder.
     pub pd: DMatrix<f64>,
     /// Discrete input matrix, inputs [`INPUTS`].
@@ -363,6 +373,8 @@ impl TruePlant {
             xcg,
             speed_mps,
             altitude_m,
+            trim_theta_rad: trim.theta_rad,
+            trim_alpha_rad: trim.alpha_rad,
             pd,
             pb,
         })
@@ -905,8 +917,8 @@ pub fn grid_on(cfg: &ControllerConfig, mass_factor: f64) -> Result<Vec<GridPoint
         .par_iter()
         .map(|&(v, h, xcg)| {
             let design = node_design(v, h)?;
-            let controller = FlownController::new(&design, cfg);
             let plant = TruePlant::with_mass(xcg, mass_factor, v, h)?;
+            let controller = FlownController::new(&design, cfg, &plant);
             Ok(GRID_LATENCY_STEPS
                 .iter()
                 .map(|&d| GridPoint {
