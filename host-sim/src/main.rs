@@ -623,14 +623,20 @@ fn margins(
     Ok(())
 }
 
-/// A gross-mass factor the receiver's plant factors accept (`receiver.mass_scale`).
+/// A gross-mass factor the receiver's plant factors accept (`receiver.mass_scale`'s limits).
 fn parse_mass_factor(s: &str) -> Result<f64, String> {
     let m: f64 = s.parse().map_err(|e| format!("{e}"))?;
-    if (0.5..=2.0).contains(&m) {
+    let limits = host_sim::receiver::FACTORS
+        .iter()
+        .find(|f| f.name == "mass_scale")
+        .map(|f| f.limits)
+        .ok_or("the plant has no mass factor")?;
+    if limits.contains(m) {
         Ok(m)
     } else {
         Err(format!(
-            "{m} is outside 0.5..=2 (a factor of the design's mass)"
+            "{m} is outside {} (a factor of the design's mass)",
+            limits.text
         ))
     }
 }
