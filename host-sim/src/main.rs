@@ -36,7 +36,7 @@ use clap::{Parser, Subcommand};
 use host_sim::animate::{self, AnimationOptions};
 use host_sim::config_schema;
 use host_sim::montecarlo::{self, CampaignComputer, CampaignMeta, Shard};
-use host_sim::receiver::F16;
+use host_sim::receiver::{F16, ReceiverPlant};
 use host_sim::record::{self, Recording};
 use host_sim::scenario::{ControllerSection, PRESETS, ScenarioFile};
 
@@ -72,6 +72,9 @@ enum Command {
         /// Centre of gravity, fraction of the mean chord.
         #[arg(long, default_value_t = NOMINAL_XCG)]
         xcg: f64,
+        /// The receiver's gross mass over the design's (the plant's `mass_scale`).
+        #[arg(long, default_value_t = 1.0, value_parser = parse_mass_factor)]
+        mass_factor: f64,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
@@ -324,8 +327,9 @@ fn run(cli: Cli) -> Result<(), AnyError> {
             speed_mps,
             altitude_m,
             xcg,
+            mass_factor,
             json,
-        } => trim(speed_mps, altitude_m, xcg, json),
+        } => trim(speed_mps, altitude_m, xcg, mass_factor, json),
         Command::Gains { json, write_core } => gains(json, write_core),
         Command::Margins {
             paper,
@@ -560,8 +564,16 @@ fn monte_carlo(args: MonteCarloArgs) -> Result<(), AnyError> {
     Ok(())
 }
 
-fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), AnyError> {
-    let model = F16::new(xcg)?;
+fn trim(
+    speed_mps: f64,
+    altitude_m: f64,
+    xcg: f64,
+    mass_factor: f64,
+    json: bool,
+) -> Result<(), AnyError> {
+    let mut factors = ReceiverPlant::NOMINAL;
+    factors.mass_scale = mass_factor;
+    let model = F16::with_plant(xcg, &factors)?;
     // The models' range, as a scenario's flight condition (the key as the user wrote it).
     FlightCondition {
         airspeed_mps: speed_mps,
@@ -570,7 +582,11 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
     .validate(|h| model.air_at(h), "--speed-mps", "--altitude-m")?;
     let t = model
         .trim_straight_level(speed_mps, altitude_m)
-        .map_err(|e| format!("no trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}: {e}"))?;
+        .map_err(|e| {
+            format!(
+                "no trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}, mass factor {mass_factor}: {e}"
+            )
+        })?;
     if json {
         let v = serde_json::json!({
             "alpha_rad": t.alpha_rad,
@@ -584,7 +600,7 @@ fn trim(speed_mps: f64, altitude_m: f64, xcg: f64, json: bool) -> Result<(), Any
         println!("{v}");
     } else {
         println!(
-            "trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}: alpha = theta = {:.4} deg, throttle {:.4}, \
+            "trim at {speed_mps} m/s, {altitude_m} m, xcg {xcg}, mass factor {mass_factor}: alpha = theta = {:.4} deg, throttle {:.4}, \
              elevator {:.4} deg, aileron {:.4} deg, rudder {:.4} deg (residual {:.1e})",
             t.alpha_rad.to_degrees(),
             t.throttle,

@@ -56,6 +56,18 @@ fn trim_json_has_the_documented_fields_and_a_tiny_residual() {
     // A forward cg needs more nose-up elevator (more negative).
     let forward = json(&["trim", "--xcg", "0.30", "--json"]);
     assert!(forward["elevator_deg"].as_f64().unwrap() < v["elevator_deg"].as_f64().unwrap());
+    // A heavier receiver flies level at a larger angle of attack and more throttle; a mass
+    // factor outside the plant's limits is refused.
+    let heavy = json(&["trim", "--mass-factor", "1.25", "--json"]);
+    let base = json(&["trim", "--json"]);
+    for key in ["alpha_rad", "throttle"] {
+        assert!(
+            heavy[key].as_f64().unwrap() > base[key].as_f64().unwrap() + 1e-3,
+            "{key}"
+        );
+    }
+    let (ok, _, stderr) = host_sim(&["trim", "--mass-factor", "3"]);
+    assert!(!ok && stderr.contains("--mass-factor"), "{stderr}");
 }
 
 #[test]
