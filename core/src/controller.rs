@@ -20,7 +20,9 @@
 //! ([`crate::schedule`]): the step checks the condition against the docking envelope every
 //! step (outside it an engage is refused and an engaged receiver breaks away), and
 //! [`Controller::follow_schedule`], which the flight loop calls after each step, loads the
-//! design of a new condition for the next step.
+//! design of a new condition for the next step. The envelope's slow edge, which follows the
+//! configured gross mass, the step checks itself in standby (where an engage is decided);
+//! engaged, the follow-up checks each new condition against it, one step after it arrives.
 //!
 //! Invariants: `step` never panics and returns finite commands inside the actuator limits
 //! for every input (property-tested in `tests/properties.rs`).
@@ -55,7 +57,7 @@ use crate::num::{self, clamp_sym, max_to, min_to};
 use crate::outer::{self, OuterOutput};
 use crate::predictor::LatencyPredictor;
 use crate::procedure::{self, Forward, Procedure};
-use crate::schedule::{self, DesignPoint, FlightCondition, ScheduleError};
+use crate::schedule::{self, DesignPoint, FlightCondition, MassEnvelope, ScheduleError};
 
 /// Everything the controller reads in one step.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -269,6 +271,8 @@ struct Derived {
     tip: TipGeometry,
     /// The attitude-command loop's design at the scheduled trim's speed.
     attitude: AttitudeDesign,
+    /// The docking envelope at the configured gross mass.
+    docking_envelope: MassEnvelope,
 }
 
 impl Derived {
@@ -320,6 +324,7 @@ impl Derived {
                 schedule::DESIGN.trim.speed_mps,
                 Controller::PERIOD_S,
             ),
+            docking_envelope: MassEnvelope::new(cfg.mass_factor),
         })
     }
 }
@@ -336,6 +341,24 @@ struct Scheduled {
     trim: TrimPoint,
     /// Why `condition` has no design, when it has none.
     error: Option<ScheduleError>,
+    /// The condition the follow-up last checked against the docking envelope's slow edge.
+    edge_condition: FlightCondition,
+    /// `edge_condition` below the slow edge: [`ScheduleError::AngleOfAttackHigh`].
+    slow_edge: Option<ScheduleError>,
+}
+
+impl Scheduled {
+    /// The slow edge's verdict on `condition`: below it, [`ScheduleError::AngleOfAttackHigh`]
+    /// (the grid's own limits are the step's).
+    fn below_slow_edge(
+        envelope: &MassEnvelope,
+        condition: FlightCondition,
+    ) -> Option<ScheduleError> {
+        envelope
+            .check(condition)
+            .err()
+            .filter(|e| *e == ScheduleError::AngleOfAttackHigh)
+    }
 }
 
 /// Why [`Controller::reconfigure`] refused a configuration.
@@ -461,6 +484,11 @@ impl Controller {
                 design_condition: FlightCondition::default(),
                 trim: d.trim,
                 error: None,
+                edge_condition: FlightCondition::default(),
+                slow_edge: Scheduled::below_slow_edge(
+                    &derived.docking_envelope,
+                    FlightCondition::default(),
+                ),
             },
             last_outer: OuterOutput::default(),
             v_cmd: VelocityRe::ZERO,
@@ -520,8 +548,10 @@ impl Controller {
     }
 
     /// Follows the gain schedule: when the latest valid navigation sample put the flight
-    /// condition somewhere new inside the docking envelope, interpolates the design there
-    /// and flies it from the next step on. Returns true when it loaded a design.
+    /// condition somewhere new, checks it against the docking envelope's slow edge (the
+    /// engaged step's verdict from the next step on) and, inside the grid, interpolates the
+    /// design there and flies it from the next step on. Returns true when it loaded a
+    /// design.
     ///
     /// Not part of [`Controller::step`]: the interpolation (every number of the design, a
     /// few thousand instructions) would sit on the control path's deadline for a condition
@@ -536,7 +566,13 @@ impl Controller {
     #[inline(never)]
     pub fn follow_schedule(&mut self) -> bool {
         let s = &mut self.scheduled;
-        if s.error.is_some() || s.condition == s.design_condition {
+        if s.condition != s.edge_condition {
+            s.edge_condition = s.condition;
+            s.slow_edge = Scheduled::below_slow_edge(&self.derived.docking_envelope, s.condition);
+        }
+        // Below the slow edge the grid still has a design, and it is flown (the trim held in
+        // standby, a breakaway flown on it): the edge refuses the docking, not the flight.
+        if schedule::check(s.condition).is_err() || s.condition == s.design_condition {
             return false;
         }
         match schedule::design_at(s.condition) {
@@ -548,6 +584,25 @@ impl Controller {
             // The step checked the condition inside; not reached, and refused rather than
             // flown if it were.
             Err(_) => false,
+        }
+    }
+
+    /// Why `condition` is outside the docking envelope, if it is: the grid's limits, and the
+    /// slow edge (the configured gross mass's). In standby, where an engage is decided, the
+    /// edge is checked on this very condition; engaged, the follow-up's verdict on the last
+    /// condition it checked counts (a new one is checked one step after it arrives, as its
+    /// design is loaded), which keeps the edge's search off the capture's dearest steps.
+    ///
+    /// Never inlined: its branches inside the step let the compiler merge control flow into
+    /// a loop the static bound cannot take apart (a loop with several entries).
+    #[inline(never)]
+    fn envelope_error(&self, condition: FlightCondition) -> Option<ScheduleError> {
+        if self.modes.mode() == Mode::Standby {
+            self.derived.docking_envelope.check(condition).err()
+        } else {
+            schedule::check(condition)
+                .err()
+                .or(self.scheduled.slow_edge)
         }
     }
 
@@ -1019,8 +1074,10 @@ impl Controller {
         }
         let nav_valid = nav_error.is_none();
         if nav_valid {
-            let (s, condition) = (&mut self.scheduled, input.nav.condition);
-            s.error = schedule::check(condition).err();
+            let condition = input.nav.condition;
+            let error = self.envelope_error(condition);
+            let s = &mut self.scheduled;
+            s.error = error;
             s.condition = condition;
         }
         let in_envelope = self.scheduled.error.is_none();

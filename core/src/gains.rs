@@ -128,6 +128,9 @@ pub const REFUEL_LIGHT_LAT: ChannelGains<5, 1, 2> = ChannelGains {
     c_cg: [[120.0, -11.091418, 120.0, 0.0, 0.0]],
 };
 
+/// The lift's zero angle of attack on the refuelling design's airframe at its condition, rad: the 1 g trim angle's line through the two designs' masses (1 and `REFUEL_LIGHT_MASS_FACTOR`), extended to zero mass. The docking envelope's angle-of-attack rule scales the trim's angle from it by the mass (`crate::schedule::MassEnvelope`).
+pub const ZERO_LIFT_ALPHA_RAD: f32 = -0.02507479;
+
 /// The gain schedule's true airspeeds, m/s (`crate::schedule`).
 pub const SCHEDULE_SPEEDS_MPS: [f32; 4] = [100.0, 120.0, 145.0, 170.0];
 

@@ -44,6 +44,10 @@ pub enum ScheduleError {
     AltitudeLow,
     /// The altitude is above the envelope's highest.
     AltitudeHigh,
+    /// The airspeed is below the docking envelope's lowest for the receiver's configured gross
+    /// mass: its 1 g angle of attack there leaves less than [`LOAD_FACTOR_RESERVE`] to
+    /// [`ANGLE_OF_ATTACK_LIMIT_RAD`] ([`MassEnvelope`]).
+    AngleOfAttackHigh,
 }
 
 impl core::fmt::Display for ScheduleError {
@@ -54,11 +58,138 @@ impl core::fmt::Display for ScheduleError {
             Self::AirspeedHigh => "the airspeed is above the docking envelope",
             Self::AltitudeLow => "the altitude is below the docking envelope",
             Self::AltitudeHigh => "the altitude is above the docking envelope",
+            Self::AngleOfAttackHigh => {
+                "the airspeed is too low for the receiver's gross mass: its angle of attack at 1 g \
+                 leaves too little to the limit"
+            }
         })
     }
 }
 
 impl core::error::Error for ScheduleError {}
+
+/// The largest angle of attack the refuelling procedure may fly, rad: 20 degrees (ours: the
+/// F-16's flight-control system limits the angle of attack to 25 degrees in its cruise
+/// configuration, and the limiter itself overshoots by a few degrees in a sharp pull; the
+/// same figure the simulator's referee judges by, reasoned independently).
+pub const ANGLE_OF_ATTACK_LIMIT_RAD: f32 = 20.0 * core::f32::consts::PI / 180.0;
+
+/// The load factor the receiver must be able to pull at the docking condition before its
+/// angle of attack reaches [`ANGLE_OF_ATTACK_LIMIT_RAD`] (ours: 1 g of level flight, the
+/// vertical gust of three standard deviations of the strongest air the campaigns fly,
+/// MIL-F-8785C's light turbulence at high altitude, 2.2 m/s: 3.8 degrees, about 0.3 g at the
+/// envelope's slowest docking speed, and 0.2 g for the procedure's own manoeuvres;
+/// `docs/conventions.md`, "The docking envelope by gross mass").
+pub const LOAD_FACTOR_RESERVE: f32 = 1.5;
+
+/// The receiver's angle of attack in level flight (1 g) at a trim of the schedule when its
+/// gross mass is `mass_factor` times the design's, rad: the lift, and so the angle from the
+/// lift's zero angle ([`crate::gains::ZERO_LIFT_ALPHA_RAD`]), grows with the weight carried.
+#[inline]
+pub fn level_angle_of_attack_rad(trim_alpha_rad: f32, mass_factor: f32) -> f32 {
+    let zero = gains::ZERO_LIFT_ALPHA_RAD;
+    zero + mass_factor * (trim_alpha_rad - zero)
+}
+
+/// The largest 1 g angle of attack the docking envelope admits, rad: the one from which a
+/// pull of [`LOAD_FACTOR_RESERVE`] reaches [`ANGLE_OF_ATTACK_LIMIT_RAD`] (the angle from the
+/// lift's zero angle grows with the load factor).
+#[inline]
+pub fn max_level_angle_of_attack_rad() -> f32 {
+    let zero = gains::ZERO_LIFT_ALPHA_RAD;
+    zero + (ANGLE_OF_ATTACK_LIMIT_RAD - zero) / LOAD_FACTOR_RESERVE
+}
+
+/// The docking envelope of a receiver of a stated gross mass: the grid's rectangle
+/// ([`check`]) less its slow end, where the receiver's level-flight angle of attack
+/// ([`level_angle_of_attack_rad`] on the schedule's trim) is above
+/// [`max_level_angle_of_attack_rad`]. A heavy receiver at the slow, high corner trims close
+/// to the angle-of-attack limit before the procedure asks anything of it; no design can
+/// dock there.
+///
+/// Found as the lowest airspeed at each altitude node, on the node's row of trims (linear
+/// between speed nodes, as the schedule blends them; so exact at the nodes' altitudes), and
+/// held per altitude cell as a line between its two nodes: built once per configuration
+/// ([`MassEnvelope::new`]), checked every step in a few comparisons and one multiply-add
+/// (the step's budget has no room for the schedule's search and division).
+///
+/// Invariants: at the design's mass (1) the whole grid's rectangle but its slow, high
+/// corner; the lowest airspeed does not fall as the mass grows; in an altitude cell where
+/// either node admits no speed of the grid, the lowest airspeed is infinite (every condition
+/// there refused, the cell's nodes included).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassEnvelope {
+    /// Per altitude cell (between nodes `j` and `j + 1` of [`SCHEDULE_ALTITUDES_M`]): the
+    /// lowest true airspeed at its lower node, m/s, and its rise per metre of altitude, m/s
+    /// per m; infinite and 0 where a node of the cell admits no speed.
+    cells: [(f32, f32); ALTITUDE_CELLS],
+}
+
+/// The altitude cells of the grid.
+const ALTITUDE_CELLS: usize = SCHEDULE_ALTITUDES_M.len() - 1;
+
+impl MassEnvelope {
+    /// The envelope of a receiver `mass_factor` times the design's mass (finite and
+    /// positive: [`crate::config::ControllerConfig::validate`] holds it to its range).
+    pub fn new(mass_factor: f32) -> Self {
+        let limit = max_level_angle_of_attack_rad();
+        let mut lowest = [f32::INFINITY; SCHEDULE_ALTITUDES_M.len()];
+        for (low, row) in lowest.iter_mut().zip(SCHEDULE.iter()) {
+            let mut previous: Option<(f32, f32)> = None;
+            for (node, &v) in row.iter().zip(SCHEDULE_SPEEDS_MPS.iter()) {
+                let a = level_angle_of_attack_rad(node.trim.alpha_rad, mass_factor);
+                if a <= limit {
+                    *low = match previous {
+                        // The crossing on the line between the two speed nodes.
+                        Some((v0, a0)) => v0 + (a0 - limit) / (a0 - a) * (v - v0),
+                        None => v,
+                    };
+                    break;
+                }
+                previous = Some((v, a));
+            }
+        }
+        let mut cells = [(f32::INFINITY, 0.0); ALTITUDE_CELLS];
+        for (k, cell) in cells.iter_mut().enumerate() {
+            let (a, b) = (lowest.get(k), lowest.get(k + 1));
+            let (h0, h1) = (SCHEDULE_ALTITUDES_M.get(k), SCHEDULE_ALTITUDES_M.get(k + 1));
+            if let (Some(&a), Some(&b), Some(&h0), Some(&h1)) = (a, b, h0, h1)
+                && a.is_finite()
+                && b.is_finite()
+            {
+                *cell = (a, (b - a) / (h1 - h0));
+            }
+        }
+        Self { cells }
+    }
+
+    /// The lowest true airspeed of the envelope at `altitude_m` (inside the grid's altitudes),
+    /// m/s: linear in its altitude cell between the nodes' figures (a node shared by two
+    /// cells belongs to the lower one); infinite where a node of the cell admits none.
+    #[inline]
+    pub fn lowest_airspeed_mps(&self, altitude_m: f32) -> f32 {
+        // The cell: how many of the inner nodes lie below the altitude (no loop: the control
+        // task's static bound declares every loop it meets).
+        let [_, h1, h2, _] = SCHEDULE_ALTITUDES_M;
+        let j = usize::from(altitude_m > h1) + usize::from(altitude_m > h2);
+        match (self.cells.get(j), SCHEDULE_ALTITUDES_M.get(j)) {
+            (Some(&(low, rise)), Some(&h0)) => low + rise * (altitude_m - h0),
+            _ => f32::INFINITY,
+        }
+    }
+
+    /// Whether `condition` is inside this receiver's docking envelope: [`check`], then
+    /// [`ScheduleError::AngleOfAttackHigh`] below the lowest airspeed.
+    #[inline]
+    pub fn check(&self, condition: FlightCondition) -> Result<(), ScheduleError> {
+        check(condition)?;
+        if condition.true_airspeed_mps < self.lowest_airspeed_mps(condition.altitude_m) {
+            Err(ScheduleError::AngleOfAttackHigh)
+        } else {
+            Ok(())
+        }
+    }
+}
 
 /// The single-point design of [`crate::gains`] as a [`DesignPoint`]: the controller's
 /// design until a navigation sample names another condition, and the schedule's node at
@@ -294,6 +425,91 @@ mod tests {
             true_airspeed_mps: v,
             altitude_m: h,
         })
+    }
+
+    /// A condition at `v` m/s and `h` m.
+    fn cond(v: f32, h: f32) -> FlightCondition {
+        FlightCondition {
+            true_airspeed_mps: v,
+            altitude_m: h,
+        }
+    }
+
+    #[test]
+    fn at_the_design_mass_only_the_slow_high_corner_leaves_the_envelope() {
+        let e = MassEnvelope::new(1.0);
+        let (v, _) = envelope();
+        for h in [500.0, 3000.0, 5500.0] {
+            assert_eq!(e.lowest_airspeed_mps(h), v[0], "{h} m");
+        }
+        let top = e.lowest_airspeed_mps(8000.0);
+        assert!(v[0] < top && top < SCHEDULE_SPEEDS_MPS[1], "{top}");
+    }
+
+    #[test]
+    fn at_each_altitude_nodes_lowest_airspeed_the_level_angle_of_attack_is_the_limit() {
+        let limit = max_level_angle_of_attack_rad();
+        // A pull of the reserve from the level angle reaches the limit.
+        let zero = gains::ZERO_LIFT_ALPHA_RAD;
+        let pulled = zero + LOAD_FACTOR_RESERVE * (limit - zero);
+        assert!((pulled - ANGLE_OF_ATTACK_LIMIT_RAD).abs() < 1e-6);
+        let (v, _) = envelope();
+        let mut interior = 0;
+        for mass in [0.85, 1.0, 1.1, 1.25, 1.5, 2.0] {
+            let e = MassEnvelope::new(mass);
+            for &h in &SCHEDULE_ALTITUDES_M {
+                let low = e.lowest_airspeed_mps(h);
+                if low > v[0] && low < v[1] {
+                    interior += 1;
+                    let level =
+                        |v| level_angle_of_attack_rad(trim_at(cond(v, h)).unwrap().alpha_rad, mass);
+                    assert!((level(low) - limit).abs() < 2e-5, "mass {mass}, {h} m");
+                    assert!(level(low - 0.5) > limit, "mass {mass}, {h} m");
+                    assert_eq!(
+                        e.check(cond(low - 0.01, h)),
+                        Err(ScheduleError::AngleOfAttackHigh)
+                    );
+                    assert_eq!(e.check(cond(low + 0.01, h)), Ok(()));
+                } else if low == v[0] {
+                    // The whole row: even the slowest node is below the limit.
+                    assert!(
+                        level_angle_of_attack_rad(trim_at(cond(low, h)).unwrap().alpha_rad, mass)
+                            <= limit
+                    );
+                }
+            }
+        }
+        assert!(
+            interior >= 8,
+            "the masses above cross the grid's rows: {interior}"
+        );
+    }
+
+    #[test]
+    fn a_heavier_receiver_never_has_a_lower_slow_edge_and_where_none_will_do_all_is_refused() {
+        let (v, h) = envelope();
+        let masses = [0.5, 0.85, 1.0, 1.25, 1.5, 2.0, 2.5];
+        for k in 0..=14 {
+            let alt = h[0] + (h[1] - h[0]) * k as f32 / 14.0;
+            let lows = masses.map(|m| MassEnvelope::new(m).lowest_airspeed_mps(alt));
+            assert!(lows.windows(2).all(|w| w[0] <= w[1]), "{alt} m: {lows:?}");
+        }
+        // At 2.5 times the mass no speed of the grid will do at the top altitude.
+        let heavy = MassEnvelope::new(2.5);
+        assert_eq!(heavy.lowest_airspeed_mps(h[1]), f32::INFINITY);
+        assert_eq!(
+            heavy.check(cond(v[1], h[1])),
+            Err(ScheduleError::AngleOfAttackHigh)
+        );
+        // The grid's own limits come first.
+        assert_eq!(
+            heavy.check(cond(v[0] - 1.0, h[1])),
+            Err(ScheduleError::AirspeedLow)
+        );
+        assert_eq!(
+            heavy.check(cond(f32::NAN, h[1])),
+            Err(ScheduleError::NonFinite)
+        );
     }
 
     #[test]

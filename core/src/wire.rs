@@ -80,7 +80,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 17;
+pub const PROTOCOL_VERSION: u8 = 18;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 704;

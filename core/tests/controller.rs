@@ -1318,6 +1318,55 @@ fn outside_the_docking_envelope_an_engage_is_refused_with_the_limit_named() {
 }
 
 #[test]
+fn the_slow_edge_of_the_docking_envelope_follows_the_configured_gross_mass() {
+    // At 110 m/s and 8,000 m the design's airframe flies level at about 14 deg of angle of
+    // attack, above the 12.9 deg from which a pull of 1.5 g reaches the 20 deg limit; at 0.85
+    // of the mass, at about 11.7 deg. The heavier receiver is refused, the lighter engages.
+    let slow_high = condition(110.0, 8000.0);
+    for (mass, refused) in [(1.0, true), (0.85, false)] {
+        let mut cfg = config();
+        cfg.mass_factor = mass;
+        let mut rig = Rig::new(cfg);
+        rig.nav.condition = slow_high;
+        let out = rig.step_with(MID, |i| i.request = ModeRequest::Engage);
+        let expected = if refused {
+            (Mode::Standby, Some(ScheduleError::AngleOfAttackHigh))
+        } else {
+            (Mode::Approach, None)
+        };
+        assert_eq!((out.mode, out.envelope_error), expected, "mass {mass}");
+        assert_eq!(
+            out.status.contains(StatusFlags::ENGAGE_REFUSED),
+            refused,
+            "mass {mass}"
+        );
+    }
+    // Engaged at 120 m/s (inside at the design's mass), the tanker slowing to 110 m/s breaks
+    // the receiver away, the limit named: engaged, the slow edge is the follow-up's to check,
+    // so one step after the condition arrives (as its design would be loaded).
+    let mut rig = Rig::engaged(config(), perturbed_nav(), MID);
+    rig.nav.condition = condition(120.0, 8000.0);
+    assert_eq!(rig.step_with(MID, |_| {}).mode, Mode::Approach);
+    assert!(rig.ctl.follow_schedule());
+    rig.nav.condition = slow_high;
+    let out = rig.step_with(MID, |_| {});
+    assert_eq!((out.mode, out.envelope_error), (Mode::Approach, None));
+    assert!(
+        rig.ctl.follow_schedule(),
+        "below the edge the grid's design is flown"
+    );
+    let out = rig.step_with(MID, |_| {});
+    assert_eq!(
+        (out.mode, out.breakaway_reason, out.envelope_error),
+        (
+            Mode::Breakaway,
+            Some(BreakawayReason::OutsideDockingEnvelope),
+            Some(ScheduleError::AngleOfAttackHigh)
+        )
+    );
+}
+
+#[test]
 fn leaving_the_docking_envelope_engaged_breaks_away_on_the_last_design() {
     let mut rig = Rig::engaged(config(), perturbed_nav(), MID);
     rig.nav.condition = condition(120.0, 8500.0);

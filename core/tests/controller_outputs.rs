@@ -908,9 +908,10 @@ fn a_standby_trim_outside_a_limit_is_reported_saturated() {
     // Standby commands the trim of the design in use. The configuration must hold the
     // single-point design's trim, but a scheduled condition's may lie outside a limit: the
     // elevator then sits at that limit, and the step says so (with nothing else to flag:
-    // no integrator runs in standby).
+    // no integrator runs in standby). A condition inside the design mass's docking
+    // envelope (at 8,000 m it starts near 116 m/s).
     let condition = FlightCondition {
-        true_airspeed_mps: 100.0,
+        true_airspeed_mps: 120.0,
         altitude_m: 8000.0,
     };
     let there = design_at(condition)

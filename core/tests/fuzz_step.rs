@@ -277,7 +277,8 @@ fn pbvs() -> ControllerConfig {
 }
 
 /// The refuelling procedure with two attempts and a 12 s sortie, so that both ends of the
-/// sortie are reached.
+/// sortie are reached, on a heavy receiver (1.2 times the design's mass: its docking
+/// envelope's slow edge is another than the paper's configurations').
 fn refuelling() -> ControllerConfig {
     ControllerConfig {
         refuelling: RefuellingConfig {
@@ -285,6 +286,7 @@ fn refuelling() -> ControllerConfig {
             sortie_budget_s: 12.0,
             ..RefuellingConfig::default()
         },
+        mass_factor: 1.2,
         ..ControllerConfig::default()
     }
 }

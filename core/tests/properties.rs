@@ -32,6 +32,7 @@ use ibvs_core::config::largest_schedule_trim_angle_rad;
 use ibvs_core::controller::StatusFlags;
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
 use ibvs_core::nav::{FlightCondition, NavSample};
+use ibvs_core::schedule::MassEnvelope;
 use ibvs_core::{
     Controller, ControllerConfig, ControllerInput, Counters, Mode, ModeRequest, OuterLaw, Procedure,
 };
@@ -108,7 +109,7 @@ fn field(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
 /// flight (speed within 1.5 m/s of the tanker's, rates within 0.1 rad/s, so that approaches
 /// run on to the terminal phase and docking), sometimes anything the envelope accepts (up to
 /// 25 m/s and 1.4 rad/s: overspeed breakaways), at the design's flight condition or another
-/// inside the docking envelope.
+/// inside the docking envelope (at the design's gross mass, the configurations').
 fn plausible_nav() -> impl Strategy<Value = NavSample> {
     let small = (
         (
@@ -150,9 +151,14 @@ fn plausible_nav() -> impl Strategy<Value = NavSample> {
         true_airspeed_mps,
         altitude_m,
     };
+    // Inside the docking envelope of the configurations' gross mass (the design's): above
+    // its slow edge.
+    let docking = MassEnvelope::new(1.0);
     let condition = prop_oneof![
         8 => Just(FlightCondition::default()),
-        1 => (100.0_f32..=170.0, 500.0_f32..=8000.0).prop_map(at),
+        1 => (100.0_f32..=170.0, 500.0_f32..=8000.0)
+            .prop_map(at)
+            .prop_filter("inside the docking envelope", move |c| docking.check(*c).is_ok()),
     ];
     (prop_oneof![4 => small, 1 => large], condition).prop_map(|((lon, lat), condition)| NavSample {
         condition,

@@ -216,18 +216,20 @@ fn core_against_model(
 /// The relative difference accepted between the core's commands (`f32`, its navigation
 /// sample rounded to `f32`; the odd part of the two flights, `core_against_model`) and the
 /// analysed loop's (`f64`): about five times the largest measured over the points below
-/// (2.7e-4, the refuelling procedure's: its exact kinematics' third-order terms and the
-/// rounding; the paper's procedure, linear, 1.3e-5), and under a tenth of what a mis-wired
-/// loop gives (checked below: 0.116 at the least).
+/// (2.5e-4, the refuelling procedure's: its exact kinematics' third-order terms and the
+/// rounding; the paper's procedure, linear, 6.1e-5), and under a tenth of what a mis-wired
+/// loop gives (checked below: 0.10 at the least).
 const AGREEMENT: f64 = 1e-3;
 
 #[test]
 fn the_analysed_loop_is_the_flown_loop() {
     let refuel = ControllerConfig::default();
     let paper = ControllerConfig::paper();
+    // Points inside the design mass's docking envelope (its slow edge keeps the core from
+    // engaging at 100 m/s and 8,000 m).
     for (cfg, speed, altitude, xcg, latency) in [
         (&refuel, 145.0, 5500.0, 0.30, 2),
-        (&refuel, 100.0, 8000.0, 0.40, 0),
+        (&refuel, 100.0, 5500.0, 0.40, 0),
         (&refuel, 170.0, 500.0, 0.35, 1),
         (&refuel, 120.0, 3000.0, 0.40, 2),
         (&paper, 145.0, 3000.0, 0.30, 1),

@@ -6,7 +6,8 @@
 //! - whether the frame is valid and why not (its sequence number against the last new one,
 //!   its content against the limits, the frozen-frame count), and whether the navigation is
 //!   (every state finite and inside its limit, the flight condition finite);
-//! - whether the last valid flight condition is inside the docking envelope, and the gain
+//! - whether the last valid flight condition is inside the docking envelope (the grid, and
+//!   above the lowest airspeed of the configured gross mass), and the gain
 //!   schedule's design there: the trim and the forward output row, interpolated bilinearly
 //!   over the schedule's nodes (`ibvs_core::gains::SCHEDULE`, read as data);
 //! - the tracked point's forward speed as the inner loops output it (the output row plus the
@@ -33,9 +34,10 @@
 //! terminal" and "passed the drogue plane".
 
 use ibvs_core::controller::StatusFlags;
-use ibvs_core::gains::{SCHEDULE, SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
+use ibvs_core::gains::{SCHEDULE, SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS, ZERO_LIFT_ALPHA_RAD};
 use ibvs_core::measurement::MeasurementError;
-use ibvs_core::nav::{NavError, NavSample};
+use ibvs_core::nav::{FlightCondition, NavError, NavSample};
+use ibvs_core::schedule::{ANGLE_OF_ATTACK_LIMIT_RAD, LOAD_FACTOR_RESERVE};
 use ibvs_core::{
     BreakawayReason, Controller, ControllerConfig, ControllerInput, ControllerOutput, Mode,
     ModeRequest, NoGoReason, OuterLaw, Procedure,
@@ -480,6 +482,11 @@ pub struct Model {
     last_nav: NavSample,
     nav_invalid: u16,
     design: Design,
+    /// The condition the follow-up last checked against the slow edge, and whether it was
+    /// below it (inside the grid).
+    edge: (FlightCondition, bool),
+    /// Whether this step found the condition inside the docking envelope.
+    inside: bool,
     mode: Mode,
     reason: Option<BreakawayReason>,
     meas_invalid: u16,
@@ -561,13 +568,15 @@ impl Model {
     /// The controller's state after construction: standby, the single-point design.
     pub fn new(cfg: ControllerConfig) -> Self {
         let default = NavSample::default().condition;
-        Self {
+        let mut model = Self {
             cfg,
             last_seq: None,
             frozen: None,
             last_nav: NavSample::default(),
             nav_invalid: 0,
             design: Design::at(default.true_airspeed_mps, default.altitude_m, cfg.procedure),
+            edge: (default, false),
+            inside: true,
             mode: Mode::Standby,
             reason: None,
             meas_invalid: 0,
@@ -582,7 +591,9 @@ impl Model {
             filter: None,
             nav_bias: [0.0; 3],
             nav_bias_steps: 0,
-        }
+        };
+        model.edge.1 = model.in_grid(&default) && model.below_slow_edge(&default);
+        model
     }
 
     /// The frame's error, if any (its sequence number, then its content, then frozen).
@@ -667,11 +678,73 @@ impl Model {
             .then_some(NavError::OutsideEnvelope)
     }
 
+    /// Whether the last valid condition is inside the docking envelope as the step sees it:
+    /// the grid, and the slow edge: in standby this condition's, engaged the verdict on the
+    /// last condition the follow-up checked (it checks each new one after the step).
     fn in_envelope(&self) -> bool {
         let c = &self.last_nav.condition;
+        let below = if self.mode == Mode::Standby {
+            self.below_slow_edge(c)
+        } else {
+            self.edge.1
+        };
+        self.in_grid(c) && !below
+    }
+
+    /// Whether `c` is inside the gain schedule's grid.
+    fn in_grid(&self, c: &FlightCondition) -> bool {
         let (v, h) = (&SCHEDULE_SPEEDS_MPS, &SCHEDULE_ALTITUDES_M);
         (v[0]..=v[v.len() - 1]).contains(&c.true_airspeed_mps)
             && (h[0]..=h[h.len() - 1]).contains(&c.altitude_m)
+    }
+
+    /// Whether `c` is below the docking envelope's slow edge at the configured mass.
+    fn below_slow_edge(&self, c: &FlightCondition) -> bool {
+        f64::from(c.true_airspeed_mps) < self.lowest_airspeed(f64::from(c.altitude_m))
+    }
+
+    /// The docking envelope's lowest airspeed at altitude `h` (inside the grid) for the
+    /// configured gross mass: at each altitude node, the speed where the level-flight angle
+    /// of attack (the lift's zero angle plus the mass factor times the trim's angle from it,
+    /// the trim linear in speed along the node's row) falls to the angle from which the load
+    /// factor reserve reaches the limit, found by bisection; linear in altitude between the
+    /// nodes; infinite in a cell where either node admits no speed of the grid.
+    fn lowest_airspeed(&self, h: f64) -> f64 {
+        let zero = f64::from(ZERO_LIFT_ALPHA_RAD);
+        let limit =
+            zero + (f64::from(ANGLE_OF_ATTACK_LIMIT_RAD) - zero) / f64::from(LOAD_FACTOR_RESERVE);
+        let m = f64::from(self.cfg.mass_factor);
+        let speeds = &SCHEDULE_SPEEDS_MPS;
+        let row_lowest = |j: usize| {
+            let level = |v: f64| {
+                let (i, s) = cell(speeds, v);
+                let a = |ii: usize| f64::from(SCHEDULE[j][ii].trim.alpha_rad);
+                zero + m * (a(i) * (1.0 - s) + a(i + 1) * s - zero)
+            };
+            let (mut lo, mut hi) = (f64::from(speeds[0]), f64::from(speeds[speeds.len() - 1]));
+            if level(lo) <= limit {
+                return lo;
+            }
+            if level(hi) > limit {
+                return f64::INFINITY;
+            }
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if level(mid) > limit {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hi
+        };
+        let (j, t) = cell(&SCHEDULE_ALTITUDES_M, h);
+        let (a, b) = (row_lowest(j), row_lowest(j + 1));
+        if a.is_finite() && b.is_finite() {
+            a + (b - a) * t
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// One step of the model on `input`, the uncertain decisions answered by `o`: what the
@@ -685,7 +758,12 @@ impl Model {
             self.nav_invalid = self.nav_invalid.saturating_add(1);
         }
         let in_envelope = self.in_envelope();
-        let next_design = in_envelope.then(|| {
+        self.inside = in_envelope;
+        // The follow-up after the step: a new condition checked against the slow edge, and
+        // the design loaded where the condition is inside the grid (below the edge too).
+        let c = self.last_nav.condition;
+        let edge = (c, self.in_grid(&c) && self.below_slow_edge(&c));
+        let next_design = self.in_grid(&c).then(|| {
             let c = self.last_nav.condition;
             Design::at(c.true_airspeed_mps, c.altitude_m, self.cfg.procedure)
         });
@@ -717,10 +795,12 @@ impl Model {
             (self.meas_invalid, self.mode_steps, self.stable) = (0, 0, 0);
             self.terminal_steps = 0;
         }
-        // The flight loop's follow-up after the step: the next step flies this design.
+        // The flight loop's follow-up after the step: the next step flies this design, and
+        // an engaged step judges the slow edge by this verdict.
         if let Some(d) = next_design {
             self.design = d;
         }
+        self.edge = edge;
         Observed {
             mode: self.mode,
             reason: self.reason,
@@ -762,7 +842,7 @@ impl Model {
             self.break_away(BreakawayReason::Abort);
         } else if engaged && self.nav_invalid > self.cfg.modes.hold_limit_steps {
             self.break_away(BreakawayReason::NavLost);
-        } else if !self.in_envelope() {
+        } else if !self.inside {
             if engaged {
                 self.break_away(BreakawayReason::OutsideDockingEnvelope);
             } else {

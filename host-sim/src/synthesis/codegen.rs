@@ -304,6 +304,21 @@ pub fn render(s: &Synthesis, refuel: &Synthesis, light: &Synthesis, schedule: &S
         "Lateral channel of the refuelling procedure's light design.",
         &light.lat,
     ));
+    // The lift's zero angle: the 1 g trim angle's line through the two designs' masses,
+    // extended to zero mass (the lift, and so the angle from the zero-lift angle, grows with
+    // the weight it carries).
+    let (a1, al) = (refuel.trim.alpha_rad, light.trim.alpha_rad);
+    let zero_lift = a1 - (a1 - al) / (1.0 - super::LIGHT_REFUELLING_MASS_FACTOR);
+    let _ = write!(
+        out,
+        "\n/// The lift's zero angle of attack on the refuelling design's airframe at its \
+         condition, rad: the 1 g trim angle's line through the two designs' masses (1 and \
+         `REFUEL_LIGHT_MASS_FACTOR`), extended to zero mass. The docking envelope's \
+         angle-of-attack rule scales the trim's angle from it by the mass \
+         (`crate::schedule::MassEnvelope`).\n\
+         pub const ZERO_LIFT_ALPHA_RAD: f32 = {};\n",
+        lit(zero_lift)
+    );
     out.push_str(&schedule_text(schedule));
     out
 }
