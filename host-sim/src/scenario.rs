@@ -24,6 +24,7 @@
 
 use ibvs_core::ControllerConfig;
 use ibvs_core::kinematics::SET_BACK_CAMERA_BODY_M;
+use ibvs_core::schedule::MassEnvelope;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -1830,6 +1831,20 @@ impl ScenarioFile {
                 ..grade.errors()
             };
         }
+        if let Some([lo, hi]) = d.airspeed_mps {
+            // The tanker flies a speed the receiver can dock at: a dispersed airspeed is drawn
+            // over the part of its range inside the receiver's docking envelope at the gross
+            // mass it reports (`MassEnvelope`'s lowest airspeed), the same fraction of the way
+            // across. Where no speed of the range will do, the draw stands and the controller
+            // refuses it.
+            let mass = f.controller_config().mass_factor;
+            let altitude = f.flight.altitude_m as f32;
+            let low = f64::from(MassEnvelope::new(mass).lowest_airspeed_mps(altitude));
+            if lo < low && low < hi {
+                let across = (f.flight.airspeed_mps - lo) / (hi - lo);
+                f.flight.airspeed_mps = low + across * (hi - low);
+            }
+        }
         f
     }
 
@@ -2187,6 +2202,42 @@ mod tests {
 
     /// `envelope` is `level2` exactly, with the flight condition dispersed over the gain
     /// schedule's whole grid (the docking envelope), and every run inside it.
+    /// A dispersed airspeed is drawn inside the receiver's docking envelope at the gross mass
+    /// it reports: every one of `envelope`'s runs is one its controller engages in, and at
+    /// the slow, high corner the heavy runs are faster than the light ones.
+    #[test]
+    fn envelope_draws_airspeeds_inside_the_docking_envelope_of_the_reported_mass() {
+        let envelope = ScenarioFile::load("envelope").unwrap();
+        let (mut heavy, mut light, mut outside_the_grid_edge) = (Vec::new(), Vec::new(), 0);
+        for i in 0..2000 {
+            let f = envelope.dispersed(i);
+            let cfg = f.controller_config();
+            let c = f.flight.condition();
+            let condition = ibvs_core::schedule::FlightCondition {
+                true_airspeed_mps: c.airspeed_mps as f32,
+                altitude_m: c.altitude_m as f32,
+            };
+            let docking = MassEnvelope::new(cfg.mass_factor);
+            assert_eq!(docking.check(condition), Ok(()), "run {i}: {c:?}, {cfg:?}");
+            let low = docking.lowest_airspeed_mps(condition.altitude_m);
+            outside_the_grid_edge += usize::from(low > 100.0);
+            if c.altitude_m > 7000.0 {
+                match cfg.mass_factor {
+                    m if m > 1.15 => heavy.push(c.airspeed_mps),
+                    m if m < 0.95 => light.push(c.airspeed_mps),
+                    _ => {}
+                }
+            }
+        }
+        // The slow edge is drawn against in a good share of the runs.
+        assert!(outside_the_grid_edge > 200, "{outside_the_grid_edge}");
+        let min = |x: &[f64]| x.iter().copied().fold(f64::MAX, f64::min);
+        assert!(
+            min(&heavy) > 120.0 && min(&light) < 110.0,
+            "{heavy:?} {light:?}"
+        );
+    }
+
     #[test]
     fn envelope_is_level2_over_the_whole_docking_envelope() {
         use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
