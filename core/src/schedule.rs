@@ -110,8 +110,9 @@ pub fn max_level_angle_of_attack_rad() -> f32 {
 /// Found as the lowest airspeed at each altitude node, on the node's row of trims (linear
 /// between speed nodes, as the schedule blends them; so exact at the nodes' altitudes), and
 /// held per altitude cell as a line between its two nodes: built once per configuration
-/// ([`MassEnvelope::new`]), checked every step in a few comparisons and one multiply-add
-/// (the step's budget has no room for the schedule's search and division).
+/// ([`MassEnvelope::new`]), checked in a few comparisons and one multiply-add (no search
+/// and no division: the controller checks it on the step's path in standby, and in the
+/// schedule's follow-up when engaged, `crate::controller`).
 ///
 /// Invariants: at the design's mass (1) the whole grid's rectangle but its slow, high
 /// corner; the lowest airspeed does not fall as the mass grows; in an altitude cell where
