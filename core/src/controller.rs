@@ -591,7 +591,7 @@ impl Controller {
     /// slow edge (the configured gross mass's). In standby, where an engage is decided, the
     /// edge is checked on this very condition; engaged, the follow-up's verdict on the last
     /// condition it checked counts (a new one is checked one step after it arrives, as its
-    /// design is loaded), which keeps the edge's search off the capture's dearest steps.
+    /// design is loaded), which keeps the edge's check off the capture's dearest steps.
     ///
     /// Never inlined: its branches inside the step let the compiler merge control flow into
     /// a loop the static bound cannot take apart (a loop with several entries).
