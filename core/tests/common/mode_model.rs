@@ -482,9 +482,9 @@ pub struct Model {
     last_nav: NavSample,
     nav_invalid: u16,
     design: Design,
-    /// The condition the follow-up last checked against the slow edge, and whether it was
-    /// below it (inside the grid).
-    edge: (FlightCondition, bool),
+    /// Whether the condition the follow-up last checked was below the slow edge (inside the
+    /// grid): the engaged step's verdict.
+    edge_below: bool,
     /// Whether this step found the condition inside the docking envelope.
     inside: bool,
     mode: Mode,
@@ -575,7 +575,7 @@ impl Model {
             last_nav: NavSample::default(),
             nav_invalid: 0,
             design: Design::at(default.true_airspeed_mps, default.altitude_m, cfg.procedure),
-            edge: (default, false),
+            edge_below: false,
             inside: true,
             mode: Mode::Standby,
             reason: None,
@@ -592,7 +592,7 @@ impl Model {
             nav_bias: [0.0; 3],
             nav_bias_steps: 0,
         };
-        model.edge.1 = model.in_grid(&default) && model.below_slow_edge(&default);
+        model.edge_below = model.in_grid(&default) && model.below_slow_edge(&default);
         model
     }
 
@@ -686,7 +686,7 @@ impl Model {
         let below = if self.mode == Mode::Standby {
             self.below_slow_edge(c)
         } else {
-            self.edge.1
+            self.edge_below
         };
         self.in_grid(c) && !below
     }
@@ -762,7 +762,7 @@ impl Model {
         // The follow-up after the step: a new condition checked against the slow edge, and
         // the design loaded where the condition is inside the grid (below the edge too).
         let c = self.last_nav.condition;
-        let edge = (c, self.in_grid(&c) && self.below_slow_edge(&c));
+        let edge_below = self.in_grid(&c) && self.below_slow_edge(&c);
         let next_design = self.in_grid(&c).then(|| {
             let c = self.last_nav.condition;
             Design::at(c.true_airspeed_mps, c.altitude_m, self.cfg.procedure)
@@ -800,7 +800,7 @@ impl Model {
         if let Some(d) = next_design {
             self.design = d;
         }
-        self.edge = edge;
+        self.edge_below = edge_below;
         Observed {
             mode: self.mode,
             reason: self.reason,
