@@ -1074,12 +1074,11 @@ impl Controller {
         }
         let nav_valid = nav_error.is_none();
         if nav_valid {
-            let condition = input.nav.condition;
-            let error = self.envelope_error(condition);
-            let s = &mut self.scheduled;
-            s.error = error;
-            s.condition = condition;
+            self.scheduled.condition = input.nav.condition;
         }
+        // Judged every step on the latest valid condition, held or new: the follow-up's
+        // verdict on the slow edge applies at once, also while the navigation is held.
+        self.scheduled.error = self.envelope_error(self.scheduled.condition);
         let in_envelope = self.scheduled.error.is_none();
         let c = &mut self.counters;
         bump(&mut c.outside_docking_envelope, !in_envelope);
