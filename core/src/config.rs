@@ -547,6 +547,12 @@ config_rules! {
     non_negative refuelling.stop_clearance_m;
     holds refuelling.feedforward_lead_s if refuelling.feedforward_lead_s <= 5.0;
     non_negative estimator.drogue_swing_period_s;
+    non_negative estimator.drogue_swing_damping_ratio;
+    holds estimator.drogue_swing_damping_ratio if estimator.drogue_swing_damping_ratio < 1.0;
+    positive estimator.drogue_speed_floor_mps;
+    non_negative estimator.drogue_swing_period_exponent;
+    holds estimator.drogue_swing_period_exponent
+        if estimator.drogue_swing_period_exponent <= 1.0;
     positive estimator.drogue_accel_time_constant_s;
     holds estimator.drogue_accel_time_constant_s
         if estimator.drogue_accel_time_constant_s >= gains::CONTROL_PERIOD_S;

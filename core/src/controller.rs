@@ -550,7 +550,8 @@ impl Controller {
     /// Follows the gain schedule: when the latest valid navigation sample put the flight
     /// condition somewhere new, checks it against the docking envelope's slow edge (the
     /// engaged step's verdict from the next step on) and, inside the grid, interpolates the
-    /// design there and flies it from the next step on. Returns true when it loaded a
+    /// design there and flies it from the next step on, with the drogue estimator's model of
+    /// the hose's swing at that condition ([`EstimatorModel::at`]). Returns true when it loaded a
     /// design.
     ///
     /// Not part of [`Controller::step`]: the interpolation (every number of the design, a
@@ -578,7 +579,16 @@ impl Controller {
         match schedule::design_at(s.condition) {
             Ok(d) => {
                 s.design_condition = s.condition;
+                let condition = s.condition;
                 self.set_design(&d);
+                // The hose swings faster at a higher dynamic pressure: the feed-forward's
+                // lead and the filter's process noise follow the condition with the gains.
+                self.derived.estimator = EstimatorModel::at(
+                    &self.cfg.estimator,
+                    Self::PERIOD_S,
+                    self.cfg.refuelling.feedforward_lead_s,
+                    condition,
+                );
                 true
             }
             // The step checked the condition inside; not reached, and refused rather than
@@ -619,6 +629,12 @@ impl Controller {
     /// Counters since construction.
     pub fn counters(&self) -> &Counters {
         &self.counters
+    }
+
+    /// Refuelling: the drogue estimator's model at the flight condition in use (the hose's
+    /// swing there; [`EstimatorModel::at`]).
+    pub fn drogue_model(&self) -> &EstimatorModel {
+        &self.derived.estimator
     }
 
     /// Refuelling: the drogue estimator, its state and covariance (for the simulator's

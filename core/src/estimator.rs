@@ -40,8 +40,11 @@
 //! an exponential average of the estimated drogue velocity's square over
 //! [`EstimatorConfig::activity_time_constant_s`] gives the stationary velocity variance, and
 //! with it the PSD the predictions' uncertainty grows with (`q = 2 E[v²] / τ`, the process's
-//! stationary relation). It starts at the configured PSD's level (cautious) and settles within
-//! a few time constants: calm air makes the gate's margin small, strong turbulence large.
+//! stationary relation) and the PSD of the filter's own process noise (`q = 4 ζ ω E[v²]`, the
+//! hose's swing's relation, at least a floor speed's; the swing's period follows the flight
+//! condition's dynamic pressure, [`EstimatorModel::at`]). It starts at the configured PSD's level
+//! (cautious) and settles within a few time constants: calm air makes the gate's margin and
+//! the filter's velocity sigma small, strong turbulence large.
 //!
 //! What the filter cannot estimate it considers: the angular errors that turn the camera's
 //! view of the drogue and no frame averages away (the navigation's heading and pitch biases,
@@ -63,7 +66,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::{CameraMount, body_from_camera};
-use crate::num::{max_to, sin_cos};
+use crate::nav::FlightCondition;
+use crate::num::{max_to, min_to, sin_cos};
 
 /// Parameters of the drogue estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -77,9 +81,12 @@ pub struct EstimatorConfig {
     /// (`docs/conventions.md`, "Drogue estimator").
     pub drogue_time_constant_s: f32,
     /// Power spectral density of the white noise driving the drogue's lateral and vertical
-    /// velocity, m²/s³ (its stationary variance is `q τ / 2`). Default 0.1: the fit's 0.047
-    /// per (m/s of RMS gust)², at the design intensity of about 1.45 m/s (between the
-    /// paper's level II and MIL-F-8785C's 10⁻² intensity at 3,000 m).
+    /// velocity at the filter's start, m²/s³: the measured activity starts at its stationary
+    /// variance `q τ / 2` (0.255 m/s RMS at the default) and the measurement takes over
+    /// within a few `activity_time_constant_s`. Default 0.1: the fit's 0.047 per (m/s of RMS
+    /// gust)², at the design intensity of about 1.45 m/s (between the paper's level II and
+    /// MIL-F-8785C's 10⁻² intensity at 3,000 m): a cautious start. (The filter's process
+    /// noise was this fixed PSD until it followed the measured activity.)
     pub drogue_accel_psd_m2ps3: f32,
     /// Correlation time of the drogue's forward velocity, s.
     pub drogue_fwd_time_constant_s: f32,
@@ -137,12 +144,44 @@ pub struct EstimatorConfig {
     /// Weight of a new measurement of the tip's image point in its running average (the
     /// tip is fixed in the camera's view: the average only removes the centroid noise).
     pub tip_sight_filter: f32,
-    /// Period of the hose's swinging mode, s: the feed-forward carries the drogue's estimated
-    /// velocity and acceleration over its lead along a swing of this period
-    /// ([`DrogueEstimator::drogue_velocity_ahead`]). Default 3.9 s, the simulated hose's
-    /// lateral mode (`docs/conventions.md`, "Drogue estimator"). 0: no swing, the velocity
-    /// decays over the lead as the Gauss-Markov model says (the earlier feed-forward).
+    /// Period of the hose's swinging mode at the single-point design's condition (120 m/s,
+    /// 3,000 m), s: the feed-forward carries the drogue's estimated velocity and acceleration
+    /// over its lead along a swing of this period, scaled to the flight condition by
+    /// `drogue_swing_period_exponent` ([`DrogueEstimator::drogue_velocity_ahead`]). Default
+    /// 3.9 s, the simulated hose's lateral mode (`docs/conventions.md`, "Drogue estimator").
+    /// 0: no swing, the velocity decays over the lead as the Gauss-Markov model says (the
+    /// earlier feed-forward).
     pub drogue_swing_period_s: f32,
+    /// Damping ratio of the hose's swinging mode. With the period it sets how much of the
+    /// measured drogue activity the filter takes as the noise that drives the drogue's
+    /// velocity: `4 ζ ω` per unit velocity variance (the swing's stationary relation;
+    /// [`DrogueEstimator::predict`]). Default 0.10, the simulated hose's lateral mode
+    /// (`docs/conventions.md`, "Drogue estimator"). 0: the Gauss-Markov relation `2 / τ`.
+    pub drogue_swing_damping_ratio: f32,
+    /// How the swing's period falls with the dynamic pressure: at a flight condition it is
+    /// `drogue_swing_period_s` (the single-point design's condition) times the ratio of the
+    /// dynamic pressures to the power minus this ([`swing_period_s`]). Default 0.35: fitted
+    /// through the configured period on the simulated hose's swing at the gain schedule's
+    /// sixteen nodes (right axis; measured 2.56 s at 170 m/s and 500 m, 4.68 s at 100 m/s and
+    /// 8,000 m); every node within 15 % (9 % at 170 m/s and 500 m), where the fixed period
+    /// was up to 52 % long (`docs/conventions.md`, "Drogue estimator"). Applied only where the
+    /// dynamic pressure is above the design's: below it the period stays the configured one,
+    /// because there the inner loops are slower and the feed-forward's fixed lead along the
+    /// configured (shorter than true) swing carries the extra phase they need; the longer true
+    /// period cost docking there (`envelope` tuning runs 0..3,999 below 6 kPa: unsafe runs 3
+    /// -> 8). 0: the configured period everywhere.
+    pub drogue_swing_period_exponent: f32,
+    /// The least RMS speed of the drogue's motion the filter assumes, m/s: its process noise
+    /// never falls below that speed's through the swing's relation. It is the apparent
+    /// motion the camera's calibration gives the drogue while the receiver closes: a mount
+    /// error within the stated bound (0.5 m across the boresight at the set-back camera's
+    /// 2.67 m to the tip, 0.19 rad) turns the measured offset by that angle times the
+    /// distance to the plane, which shrinks at the closing speed: 0.19 m/s at the 1 m/s
+    /// contact speed. Default 0.19 m/s; at 0.05 m/s the filter lagged that drift in calm air
+    /// and the paper's mount error cost 5 cm of miss (`docs/conventions.md`, "Drogue
+    /// estimator"). A drogue at rest, whose measured activity tends to nothing, is followed
+    /// when it moves.
+    pub drogue_speed_floor_mps: f32,
     /// Time constant of the low-pass filter that takes the drogue's acceleration from the
     /// change of its estimated velocity, s. Default 0.2 s: a twentieth of the swing, a
     /// tenth of its phase (0.1 s and 0.35 s measured as good, `docs/scenarios.md`).
@@ -181,6 +220,9 @@ impl Default for EstimatorConfig {
             tip_sight_tolerance: 0.23,
             tip_sight_filter: 0.05,
             drogue_swing_period_s: 3.9,
+            drogue_swing_damping_ratio: 0.10,
+            drogue_swing_period_exponent: 0.35,
+            drogue_speed_floor_mps: 0.19,
             drogue_accel_time_constant_s: 0.2,
             bearing_bias_sigma_rad: [0.0145, 0.0124],
         }
@@ -398,28 +440,41 @@ struct AxisModel {
     f: f32,
     /// `τ (1 - f)`: the offset's change per unit drogue velocity over a step.
     g: f32,
-    /// Process noise `[rr, rv, vv]` over a step.
+    /// Process noise `[rr, rv, vv]` over a step, per unit PSD (the lateral axes) or at the
+    /// axis's fixed PSD (the forward axis).
     q: [f32; 3],
 }
 
 impl AxisModel {
-    /// The exact discretisation of `r' = v - u`, `v' = -v / τ + w` (PSD `psd`) at `ts_s`.
-    fn new(tau: f32, psd: f32, ts_s: f32) -> Self {
+    /// The exact discretisation of `r' = v - u`, `v' = -v / τ + w` at `ts_s`, its process
+    /// noise per unit PSD of `w` (the step's noise is linear in the PSD, which
+    /// [`AxisModel::predict`] takes).
+    fn new(tau: f32, ts_s: f32) -> Self {
         let f = libm::expf(-ts_s / tau);
         let g = tau * (1.0 - f);
-        let q = prediction_noise(tau, psd, ts_s, f);
+        let q = prediction_noise(tau, 1.0, ts_s, f);
         Self { f, g, q }
     }
 
-    fn predict(&self, a: &mut Axis, u: f32, ts: f32) {
+    /// [`AxisModel::new`] with the process noise at the fixed PSD `psd` (the forward axis):
+    /// [`AxisModel::predict`] takes it at a PSD of 1.
+    fn with_psd(tau: f32, ts_s: f32, psd: f32) -> Self {
+        let mut m = Self::new(tau, ts_s);
+        m.q = m.q.map(|q| psd * q);
+        m
+    }
+
+    /// One step with the tip's velocity `u` and the driving noise's PSD `psd`, m²/s³.
+    #[inline(always)]
+    fn predict(&self, a: &mut Axis, u: f32, ts: f32, psd: f32) {
         let [r, v] = a.x;
         a.x = [r + self.g * v - ts * u, self.f * v];
         let [prr, prv, pvv] = a.p;
         let (f, g) = (self.f, self.g);
         a.p = [
-            prr + 2.0 * g * prv + g * g * pvv + self.q[0],
-            f * (prv + g * pvv) + self.q[1],
-            f * f * pvv + self.q[2],
+            prr + 2.0 * g * prv + g * g * pvv + psd * self.q[0],
+            f * (prv + g * pvv) + psd * self.q[1],
+            f * f * pvv + psd * self.q[2],
         ];
     }
 
@@ -502,8 +557,15 @@ pub struct EstimatorModel {
     forward: AxisModel,
     /// `τ` of the lateral model, s.
     tau_s: f32,
-    /// `2 / τ`: the PSD per unit stationary velocity variance, 1/s.
+    /// `2 / τ`: the PSD per unit stationary velocity variance of the Gauss-Markov process
+    /// (the gates' predictions), 1/s.
     psd_per_variance: f32,
+    /// The filter's PSD per unit stationary velocity variance ([`filter_psd_per_variance`]),
+    /// 1/s.
+    filter_psd_per_variance: f32,
+    /// The filter's least PSD, m²/s³: `filter_psd_per_variance` times the square of
+    /// [`EstimatorConfig::drogue_speed_floor_mps`].
+    filter_psd_floor: f32,
     /// Step of the velocity-variance average, `Ts / activity_time_constant_s`.
     activity_step: f32,
     /// Step of the offset's average, `Ts / mean_time_constant_s`.
@@ -516,29 +578,56 @@ pub struct EstimatorModel {
     lead: [f32; 2],
     /// [`EstimatorConfig::bearing_bias_sigma_rad`] squared, rad².
     bearing_bias_variance: [f32; 2],
+    /// The hose's swing period the model was built for, s (0: none).
+    swing_period_s: f32,
 }
 
 impl EstimatorModel {
     /// Discretises the model of `cfg` at the period `ts_s`, with the feed-forward's lead
-    /// `lead_s` ([`DrogueEstimator::drogue_velocity_ahead`]).
+    /// `lead_s` ([`DrogueEstimator::drogue_velocity_ahead`]), at the single-point design's
+    /// flight condition (the swing's configured period).
     pub fn new(cfg: &EstimatorConfig, ts_s: f32, lead_s: f32) -> Self {
+        Self::at(cfg, ts_s, lead_s, FlightCondition::default())
+    }
+
+    /// [`EstimatorModel::new`] at the flight condition `condition`: the hose's swing at its
+    /// dynamic pressure ([`swing_period_s`]) for the feed-forward's lead and the filter's
+    /// process noise. Not for the step: two powers and a sine (the controller rebuilds it
+    /// where it loads the gain schedule's design for a new condition).
+    pub fn at(cfg: &EstimatorConfig, ts_s: f32, lead_s: f32, condition: FlightCondition) -> Self {
         let tau = cfg.drogue_time_constant_s;
+        let period = if cfg.drogue_swing_period_s > 0.0 {
+            swing_period_s(cfg, condition)
+        } else {
+            0.0
+        };
+        let filter = filter_psd_per_variance(cfg, period);
         Self {
-            lateral: AxisModel::new(tau, cfg.drogue_accel_psd_m2ps3, ts_s),
-            forward: AxisModel::new(
+            lateral: AxisModel::new(tau, ts_s),
+            forward: AxisModel::with_psd(
                 cfg.drogue_fwd_time_constant_s,
-                cfg.drogue_fwd_accel_psd_m2ps3,
                 ts_s,
+                cfg.drogue_fwd_accel_psd_m2ps3,
             ),
             tau_s: tau,
             psd_per_variance: 2.0 / tau,
+            filter_psd_per_variance: filter,
+            filter_psd_floor: filter * cfg.drogue_speed_floor_mps * cfg.drogue_speed_floor_mps,
             activity_step: ts_s / cfg.activity_time_constant_s,
             mean_step: ts_s / cfg.mean_time_constant_s,
             ts: ts_s,
             accel_step: 1.0 - libm::expf(-ts_s / cfg.drogue_accel_time_constant_s),
-            lead: swing_lead(cfg, lead_s),
+            lead: swing_lead(cfg, period, lead_s),
+            swing_period_s: period,
             bearing_bias_variance: cfg.bearing_bias_sigma_rad.map(|b| b * b),
         }
+    }
+}
+
+impl EstimatorModel {
+    /// The hose's swing period this model carries the feed-forward along, s (0: none).
+    pub fn swing_period_s(&self) -> f32 {
+        self.swing_period_s
     }
 }
 
@@ -641,10 +730,14 @@ impl DrogueEstimator {
             *a += m.accel_step * ((ax.x[1] - *before) / m.ts - *a);
             *before = ax.x[1];
         }
+        // The air's drive as measured, through the swing's relation, at least the floor.
+        let psd = self
+            .activity
+            .map(|a| max_to(m.filter_psd_per_variance * a, m.filter_psd_floor));
         let [right, down, fwd] = &mut self.axes;
-        m.lateral.predict(right, tip_velocity_mps[0], m.ts);
-        m.lateral.predict(down, tip_velocity_mps[1], m.ts);
-        m.forward.predict(fwd, tip_velocity_mps[2], m.ts);
+        m.lateral.predict(right, tip_velocity_mps[0], m.ts, psd[0]);
+        m.lateral.predict(down, tip_velocity_mps[1], m.ts, psd[1]);
+        m.forward.predict(fwd, tip_velocity_mps[2], m.ts, 1.0);
         for ((a, r), ax) in self
             .activity
             .iter_mut()
@@ -691,10 +784,17 @@ impl DrogueEstimator {
         Correction::default()
     }
 
+    /// Every state and covariance entry is finite. One sum: it is finite only if every term
+    /// is (an infinity or a NaN carries into it, and opposite infinities give NaN); finite
+    /// terms could only make it overflow near `f32::MAX`, far beyond any offset, velocity or
+    /// variance here, where restarting is right anyway. A sum, not fifteen tests: this runs
+    /// on every corrected frame, on the step's dearest path.
     fn is_finite(&self) -> bool {
         self.axes
             .iter()
-            .all(|ax| ax.x.iter().chain(&ax.p).all(|v| v.is_finite()))
+            .map(|ax| ax.x[0] + ax.x[1] + ax.p[0] + ax.p[1] + ax.p[2])
+            .sum::<f32>()
+            .is_finite()
     }
 
     /// The belief now.
@@ -808,11 +908,53 @@ pub const MAX_SWING_LEAD_RAD: f32 = 2.0 * crate::num::SIN_COS_MAX_RAD;
 /// carried over the lead, which a decaying velocity cannot give (the inner loops' lateral
 /// lag is about 0.8 s, a fifth of the swing). The configuration keeps `ωh` within
 /// [`MAX_SWING_LEAD_RAD`]. Without a swing, `kv = exp(-h / τ)`, `ka = 0`.
-fn swing_lead(cfg: &EstimatorConfig, lead_s: f32) -> [f32; 2] {
-    if cfg.drogue_swing_period_s > 0.0 {
-        let w = 2.0 * core::f32::consts::PI / cfg.drogue_swing_period_s;
-        // Double angle: the validated lead keeps `ωh / 2` within `sin_cos`'s range.
-        let (s, c) = sin_cos(0.5 * w * lead_s);
+/// The hose's swing period at the flight condition `at`, s: the configured period (at the
+/// single-point design's condition, [`FlightCondition::default`]) times the ratio of the two
+/// conditions' dynamic pressures to the power `-drogue_swing_period_exponent`, at most the
+/// configured period. The hose
+/// swings against its drag's tension, which grows with the dynamic pressure; measured on the
+/// simulated hose at the gain schedule's sixteen nodes (`docs/conventions.md`, "Drogue
+/// estimator"). The air's density is the International Standard Atmosphere's in the
+/// troposphere (`ρ ∝ (1 - 2.25577e-5 h)^4.25588`, h in m), which covers the envelope.
+/// 0 when no swing is configured.
+pub fn swing_period_s(cfg: &EstimatorConfig, at: FlightCondition) -> f32 {
+    let q = |c: FlightCondition| {
+        libm::powf(1.0 - 2.255_77e-5 * c.altitude_m, 4.255_88)
+            * c.true_airspeed_mps
+            * c.true_airspeed_mps
+    };
+    let ratio = q(at) / q(FlightCondition::default());
+    // Shorter where the air pulls harder; never longer than configured (below the design's
+    // dynamic pressure the loops are slower, and the lead along the configured swing stands
+    // in for the longer lead they would need: see the configuration's field).
+    cfg.drogue_swing_period_s * min_to(libm::powf(ratio, -cfg.drogue_swing_period_exponent), 1.0)
+}
+
+/// The PSD of the noise that drives the drogue's velocity per unit of its stationary
+/// variance, as the filter takes it, 1/s. The drogue swings as a lightly damped mode (period
+/// `P`, damping ratio `ζ`); such a mode, driven by white noise of PSD `q`, has the
+/// stationary velocity variance `q / (4 ζ ω)`, `ω = 2π / P`: so `4 ζ ω` (0.64/s at 3.9 s
+/// and 0.10). The Gauss-Markov process's own relation, `2 / τ` (1.54/s at 1.3 s), says the
+/// velocity forgets itself 2.4 times faster than the swing does and made the filter's
+/// velocity sigma twice its error (`docs/conventions.md`, "Drogue estimator"). With no
+/// swing configured (period or damping 0), `2 / τ`. `period_s`: the swing's period at the
+/// flight condition ([`swing_period_s`]).
+fn filter_psd_per_variance(cfg: &EstimatorConfig, period_s: f32) -> f32 {
+    if period_s > 0.0 && cfg.drogue_swing_damping_ratio > 0.0 {
+        4.0 * cfg.drogue_swing_damping_ratio * 2.0 * core::f32::consts::PI / period_s
+    } else {
+        2.0 / cfg.drogue_time_constant_s
+    }
+}
+
+fn swing_lead(cfg: &EstimatorConfig, period_s: f32, lead_s: f32) -> [f32; 2] {
+    if period_s > 0.0 {
+        let w = 2.0 * core::f32::consts::PI / period_s;
+        // At most a quarter swing ahead: the configuration keeps the lead within it at the
+        // configured period; a faster swing (higher dynamic pressure) is carried no further
+        // than a quarter of its own. Double angle: `ωh / 2` within `sin_cos`'s range.
+        let half = min_to(0.5 * w * lead_s, crate::num::SIN_COS_MAX_RAD);
+        let (s, c) = sin_cos(half);
         [c * c - s * s, 2.0 * s * c / w]
     } else {
         [libm::expf(-lead_s / cfg.drogue_time_constant_s), 0.0]
@@ -983,7 +1125,8 @@ mod tests {
         };
         let n = 50;
         for _ in 0..n {
-            m.lateral.predict(&mut a, 0.0, TS);
+            m.lateral
+                .predict(&mut a, 0.0, TS, cfg.drogue_accel_psd_m2ps3);
         }
         let h = n as f32 * TS;
         let f = libm::expf(-h / tau);
@@ -1194,5 +1337,149 @@ mod tests {
         let q = e.measured_accel_psd_m2ps3(&m)[0];
         assert!(q < q0 * 0.9, "{q} vs {q0}");
         assert!(e.drogue_speed_rms_mps() < rms0);
+    }
+
+    #[test]
+    fn the_filters_process_noise_is_the_measured_activity_through_the_swings_relation() {
+        let (cfg, m) = model();
+        // 4 ζ ω at the default swing (3.9 s, 0.10): 0.644/s, not the Gauss-Markov 2 / τ.
+        let w = 2.0 * core::f32::consts::PI / cfg.drogue_swing_period_s;
+        let k = 4.0 * cfg.drogue_swing_damping_ratio * w;
+        let p = cfg.drogue_swing_period_s;
+        assert!((filter_psd_per_variance(&cfg, p) - k).abs() < 1e-6);
+        assert!((k - 0.644).abs() < 1e-3, "{k}");
+        let no_swing = EstimatorConfig {
+            drogue_swing_damping_ratio: 0.0,
+            ..cfg
+        };
+        let gm = 2.0 / cfg.drogue_time_constant_s;
+        assert!((filter_psd_per_variance(&no_swing, p) - gm).abs() < 1e-6);
+        assert!((filter_psd_per_variance(&cfg, 0.0) - gm).abs() < 1e-6);
+        // One step's growth of the velocity variance from a known belief: `f² p + psd q_vv`,
+        // the PSD the activity's through the relation, or the floor's when the air is still.
+        let step = |activity: [f32; 2]| {
+            let mut e = DrogueEstimator::default();
+            e.start(
+                &TipFrame {
+                    drogue_from_tip_m: [0.2, 0.1, 3.0],
+                    camera_depth_m: 3.0,
+                },
+                &cfg,
+            );
+            e.activity = activity;
+            let before = e.velocity_variance_m2ps2();
+            e.predict([0.0; 3], &m);
+            let f2 = m.lateral.f * m.lateral.f;
+            [0, 1].map(|i| (e.velocity_variance_m2ps2()[i] - f2 * before[i]) / m.lateral.q[2])
+        };
+        let strong = step([0.09, 0.04]);
+        assert!((strong[0] - k * 0.09).abs() < 1e-3 * k * 0.09, "{strong:?}");
+        assert!((strong[1] - k * 0.04).abs() < 1e-3 * k * 0.04, "{strong:?}");
+        let floor = k * cfg.drogue_speed_floor_mps * cfg.drogue_speed_floor_mps;
+        let still = step([0.0, 1e-6]);
+        for got in still {
+            assert!((got - floor).abs() < 1e-3 * floor, "{still:?} vs {floor}");
+        }
+    }
+
+    #[test]
+    fn the_swing_period_falls_with_the_dynamic_pressure() {
+        let cfg = EstimatorConfig::default();
+        let at = |v: f32, h: f32| {
+            swing_period_s(
+                &cfg,
+                FlightCondition {
+                    true_airspeed_mps: v,
+                    altitude_m: h,
+                },
+            )
+        };
+        // The configured period at the single-point design's condition.
+        let p0 = swing_period_s(&cfg, FlightCondition::default());
+        assert!((p0 - cfg.drogue_swing_period_s).abs() < 1e-6, "{p0}");
+        // 170 m/s at 500 m: 2.58 times the dynamic pressure, 0.718 of the period (the
+        // hose measured 2.56 s).
+        let fast_low = at(170.0, 500.0);
+        assert!((fast_low - 2.80).abs() < 0.01, "{fast_low}");
+        // Below the design's dynamic pressure (100 m/s at 8,000 m: 0.40 of it, where the law
+        // gives 5.37 s and the hose 4.68 s) the configured period stays.
+        assert_eq!(at(100.0, 8000.0), p0);
+        assert_eq!(at(120.0, 5500.0), p0);
+        // Faster or lower, shorter.
+        assert!(at(145.0, 3000.0) < p0 && at(120.0, 500.0) < p0);
+        // The exponent 0 keeps the configured period everywhere.
+        let fixed = EstimatorConfig {
+            drogue_swing_period_exponent: 0.0,
+            ..cfg
+        };
+        let c = FlightCondition {
+            true_airspeed_mps: 170.0,
+            altitude_m: 500.0,
+        };
+        assert_eq!(swing_period_s(&fixed, c), cfg.drogue_swing_period_s);
+        // The model built there carries the feed-forward along that swing: a quarter swing
+        // at most (2.80 s: 0.70 s, inside the 0.8 s lead), the filter's noise `4 ζ ω`.
+        let m = EstimatorModel::at(&cfg, TS, LEAD_S, c);
+        assert!((m.swing_period_s() - fast_low).abs() < 1e-6);
+        let w = 2.0 * core::f32::consts::PI / fast_low;
+        let quarter = crate::num::SIN_COS_MAX_RAD * 2.0;
+        assert!(
+            w * LEAD_S > quarter,
+            "the lead is beyond a quarter of the fast swing"
+        );
+        assert!(
+            (m.lead[0] - libm::cosf(quarter)).abs() < 1e-3,
+            "{:?}",
+            m.lead
+        );
+        assert!(
+            (m.lead[1] - libm::sinf(quarter) / w).abs() < 1e-3,
+            "{:?}",
+            m.lead
+        );
+        let k = 4.0 * cfg.drogue_swing_damping_ratio * w;
+        assert!((m.filter_psd_per_variance - k).abs() < 1e-5);
+        // At the design's condition the model is the configured one.
+        assert_eq!(
+            EstimatorModel::at(&cfg, TS, LEAD_S, FlightCondition::default()),
+            EstimatorModel::new(&cfg, TS, LEAD_S)
+        );
+    }
+
+    #[test]
+    fn any_non_finite_entry_makes_the_belief_non_finite() {
+        let cfg = EstimatorConfig::default();
+        let mut e = DrogueEstimator::default();
+        e.start(
+            &TipFrame {
+                drogue_from_tip_m: [0.2, -0.1, 3.0],
+                camera_depth_m: 3.0,
+            },
+            &cfg,
+        );
+        assert!(e.is_finite());
+        for axis in 0..3 {
+            for entry in 0..5 {
+                for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                    let mut f = e;
+                    let ax = &mut f.axes[axis];
+                    if entry < 2 {
+                        ax.x[entry] = bad;
+                    } else {
+                        ax.p[entry - 2] = bad;
+                    }
+                    assert!(!f.is_finite(), "axis {axis}, entry {entry}: {bad}");
+                }
+            }
+        }
+        // Opposite infinities do not cancel.
+        let mut f = e;
+        f.axes[0].x[0] = f32::INFINITY;
+        f.axes[1].x[0] = f32::NEG_INFINITY;
+        assert!(!f.is_finite());
+        // Large finite entries, far beyond any real belief, are still finite.
+        let mut f = e;
+        f.axes[2].p[2] = 1e30;
+        assert!(f.is_finite());
     }
 }

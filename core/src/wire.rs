@@ -38,7 +38,7 @@
 //! # Configuration
 //!
 //! The controller's configuration travels whole: a `W` frame carries a complete
-//! [`ControllerConfig`] (528 bytes of postcard for the default), and the flight computer
+//! [`ControllerConfig`] (540 bytes of postcard for the default), and the flight computer
 //! answers with a [`ConfigReport`]: what it did ([`ConfigStatus`]: applied, rejected by
 //! validation with the field and problem, refused because the controller is not in standby,
 //! or malformed) and the configuration it now flies, with that configuration's
@@ -80,7 +80,7 @@ use crate::measurement::{MeasurementError, SequenceCheck};
 use crate::mode::Mode;
 
 /// Protocol version carried in every frame's first byte; bumped on any layout change.
-pub const PROTOCOL_VERSION: u8 = 18;
+pub const PROTOCOL_VERSION: u8 = 19;
 
 /// Largest frame on the wire, bytes: COBS-encoded payload plus the terminating zero.
 pub const MAX_FRAME_LEN: usize = 704;
@@ -1641,7 +1641,7 @@ mod tests {
         let body = postcard::to_slice(&ControllerConfig::default(), &mut [0u8; 1024])
             .unwrap()
             .len();
-        assert_eq!(body, 528, "update the module doc");
+        assert_eq!(body, 540, "update the module doc");
         assert!(
             write_len < report_len && report_len + 16 <= MAX_FRAME_LEN,
             "{report_len}"

@@ -15,6 +15,7 @@
 
 use ibvs_core::config::{ConfigProblem, LIGHT_DESIGN_BELOW_MASS_FACTOR};
 use ibvs_core::controller::StatusFlags;
+use ibvs_core::estimator::swing_period_s;
 use ibvs_core::frames::{TargetEstimate, VelocityRe};
 use ibvs_core::gains::{REFUEL_LIGHT_MASS_FACTOR, TRIM};
 use ibvs_core::measurement::{CameraMeasurement, MeasurementError};
@@ -1271,6 +1272,33 @@ fn the_controller_flies_the_gain_schedules_design_at_the_navigations_flight_cond
     rig.step_with(MID, |_| {});
     assert!(rig.ctl.follow_schedule());
     assert_eq!(rig.step_with(MID, |_| {}).command.as_array(), trim());
+}
+
+#[test]
+fn the_drogue_models_swing_follows_the_flight_condition_with_the_design() {
+    // The hose swings faster at a higher dynamic pressure: where the follow-up loads a new
+    // condition's design, the estimator's model of the swing is that condition's (the
+    // feed-forward's lead and the filter's noise with it), and back at the design's
+    // condition the configured one.
+    let mut rig = Rig::new(ControllerConfig::default());
+    let configured = rig.ctl.config().estimator.drogue_swing_period_s;
+    assert_eq!(rig.ctl.drogue_model().swing_period_s(), configured);
+    let fast_low = condition(170.0, 500.0);
+    rig.nav.condition = fast_low;
+    rig.step_with(MID, |_| {});
+    assert_eq!(
+        rig.ctl.drogue_model().swing_period_s(),
+        configured,
+        "the step flies the model it has"
+    );
+    assert!(rig.ctl.follow_schedule());
+    let there = swing_period_s(&rig.ctl.config().estimator, fast_low);
+    assert!(there < 0.75 * configured, "{there}");
+    assert_eq!(rig.ctl.drogue_model().swing_period_s(), there);
+    rig.nav.condition = FlightCondition::default();
+    rig.step_with(MID, |_| {});
+    assert!(rig.ctl.follow_schedule());
+    assert_eq!(rig.ctl.drogue_model().swing_period_s(), configured);
 }
 
 #[test]

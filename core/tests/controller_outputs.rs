@@ -450,7 +450,7 @@ fn the_station_takes_a_steady_drift_for_the_navigations_bias_and_flies_it_out() 
             ..Sortie::new()
         };
         let mut learnt = Vec::new();
-        for k in 0..2000 {
+        for k in 0..3000 {
             let out = s.step([0.3 + drift * k as f32 * 0.02, 0.0, 3.6], 0.0);
             assert_eq!(out.mode, Mode::PreContact, "step {k}");
             learnt.push((s.ctl.nav_bias_mps(), out.v_des));
@@ -458,26 +458,30 @@ fn the_station_takes_a_steady_drift_for_the_navigations_bias_and_flies_it_out() 
         learnt
     };
     let on = fly(20.0);
-    // After 10 s the running mean is near 500 / 565 of the drift (the filter's velocity
-    // settles in its first second); after 40 s the fading memory is within 3 % of it.
-    let (b10, b40) = (on[499].0, on[1999].0);
+    // After 10 s the running mean is near 500 / 565 of the drift; after 60 s the fading
+    // memory is within 3 % of it. The filter's velocity takes a few seconds to settle on
+    // the drift: in still air its process noise is the floor's (`drogue_speed_floor_mps`),
+    // and the running mean's early shortfall fades with the 20 s memory (3.1 % at 40 s,
+    // 1.3 % at 60 s; it was under 3 % at 40 s while the process noise was a fixed,
+    // stronger air's).
+    let (b10, b60) = (on[499].0, on[2999].0);
     let mean10 = drift * 500.0 / 565.0;
     assert!(
         (b10[0] - mean10).abs() < 0.1 * drift,
         "10 s: {b10:?}, about {mean10}"
     );
-    assert!((b40[0] - drift).abs() < 0.03 * drift, "40 s: {b40:?}");
+    assert!((b60[0] - drift).abs() < 0.03 * drift, "60 s: {b60:?}");
     assert!(
-        b40[1].abs() < 0.05 * drift && b40[2].abs() < 0.05 * drift,
-        "{b40:?}"
+        b60[1].abs() < 0.05 * drift && b60[2].abs() < 0.05 * drift,
+        "{b60:?}"
     );
     // Off: nothing is learnt, and the same frames ask for less lateral velocity (the bias
     // is what the station adds to fly the drift out).
     let off = fly(0.0);
     assert!(off.iter().all(|(b, _)| *b == [0.0; 3]));
-    let (with, without) = (on[1999].1.x_right_mps, off[1999].1.x_right_mps);
+    let (with, without) = (on[2999].1.x_right_mps, off[2999].1.x_right_mps);
     assert!(
-        (with - without - b40[0]).abs() < 0.2 * drift,
+        (with - without - b60[0]).abs() < 0.2 * drift,
         "{with} with the bias, {without} without"
     );
 }

@@ -5,8 +5,11 @@
 //! (transition `[[1, g], [0, f]]`, `f = exp(-Ts / τ)`, `g = τ (1 - f)`, input `[-Ts, 0]`,
 //! process noise the integrals of `q (τ (1 - e))²`, `q τ (1 - e) e`, `q e²`,
 //! `e = exp(-s / τ)` over a step, computed here by quadrature); a frame corrects the offset
-//! with variance `(σ0 + σ1 z)²` (depth: `(σd0 + σd2 z²)²`); a prediction `h` ahead adds
-//! the process noise over `h` at the measured PSD (at the start, the configured one).
+//! with variance `(σ0 + σ1 z)²` (depth: `(σd0 + σd2 z²)²`); the lateral axes' step takes
+//! the PSD `4 ζ ω` times the measured activity (at least `4 ζ ω` times the floor speed's
+//! square; `ω = 2π / P`, the hose's swing), the forward axis its configured one; a
+//! prediction `h` ahead adds the process noise over `h` at the measured PSD `2 / τ` times
+//! the activity (at the start, the configured one).
 
 use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, Restart, TipFrame};
 
@@ -144,11 +147,20 @@ fn against_the_reference(ts_s: f32) {
         f64::from(f0.drogue_from_tip_m[0]),
         f64::from(f0.drogue_from_tip_m[1]),
     ];
+    // The filter's PSD per unit activity: the swing's `4 ζ ω`.
+    let swing = 4.0 * f64::from(cfg.drogue_swing_damping_ratio) * 2.0 * std::f64::consts::PI
+        / f64::from(cfg.drogue_swing_period_s);
+    let floor = swing * f64::from(cfg.drogue_speed_floor_mps).powi(2);
     for k in 1..40 {
         let u = tip(k);
         e.predict(u, &m);
+        let lateral = activity.map(|a| (swing * a).max(floor));
         for (i, a) in reference.iter_mut().enumerate() {
-            let (t, q) = if i < 2 { (tau, psd) } else { (tau_f, psd_f) };
+            let (t, q) = if i < 2 {
+                (tau, lateral[i])
+            } else {
+                (tau_f, psd_f)
+            };
             a.predict(t, q, ts, f64::from(u[i]));
         }
         for i in 0..2 {

@@ -632,9 +632,9 @@ mod tests {
         );
         assert!((120..=MAX_BURST_LEN).contains(&c.mavlink_tx_len), "{c:?}");
         assert_eq!(c.decode_measurement, 0); // no counter on the host
-        // The default configuration's write: 528 bytes of postcard (`core/src/wire.rs`) in a
-        // 536-byte frame.
-        assert_eq!(c.config_frame_len, 536, "{c:?}");
+        // The default configuration's write: 540 bytes of postcard (`core/src/wire.rs`) in a
+        // 548-byte frame.
+        assert_eq!(c.config_frame_len, 548, "{c:?}");
         assert_eq!(c.step_stack_bytes, None);
     }
 }

@@ -1,10 +1,12 @@
 //! Development tool: the statistics of the drogue's motion that the core's drogue estimator
 //! (`core/src/estimator.rs`) is built on, measured from the simulator's own hose and drogue.
 //!
-//! `cargo run --release -p host-sim --example drogue_model`
+//! `cargo run --release -p host-sim --example drogue_model [-- SPEED_MPS ALTITUDE_M]`
 //!
 //! The world is the scenarios' (`sim::build_world`): tanker at the refuelling condition
-//! (120 m/s, 3,000 m), the multi-link hose settled in its steady trail, the tanker wake on,
+//! (120 m/s, 3,000 m) or at the true airspeed and altitude given (the hose's and the wake's
+//! air at that condition, as the envelope's runs fly them), the multi-link hose settled in
+//! its steady trail, the tanker wake on,
 //! Dryden turbulence of the given RMS intensity, no bow wave and no receiver near the drogue.
 //! It is stepped as a run steps it (`World::step` at the plant step of 0.01 s, two per
 //! control period) and the drogue's velocity relative to the tanker (right, down, forward;
@@ -55,13 +57,25 @@ const AXES: [&str; 3] = ["right", "down", "forward"];
 fn main() {
     let start = std::time::Instant::now();
     let model = F16::new(NOMINAL_XCG).expect("F-16 model");
-    let base = Scenario {
+    let args: Vec<f64> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("SPEED_MPS ALTITUDE_M: numbers"))
+        .collect();
+    let mut base = Scenario {
         hose: Some(HoseParams::default()),
         wake: Some(WakeParams::default()),
         bow_wave: false,
         plant_substeps: PLANT_SUBSTEPS,
         ..Scenario::ideal()
     };
+    match args[..] {
+        [] => {}
+        [speed_mps, altitude_m] => {
+            base.tanker.speed_mps = speed_mps;
+            base.tanker.altitude_m = altitude_m;
+        }
+        _ => panic!("usage: drogue_model [SPEED_MPS ALTITUDE_M]"),
+    }
     let trim = model
         .trim_straight_level(base.tanker.speed_mps, base.tanker.altitude_m)
         .expect("trim");
@@ -71,8 +85,10 @@ fn main() {
     let max_lag = (MAX_LAG_S / CONTROL_PERIOD_S).round() as usize;
 
     println!(
-        "drogue velocity relative to the tanker: {} seeds x {RECORD_S} s after {SETTLE_S} s, \
-         sampled every {CONTROL_PERIOD_S} s; wake on, bow wave off, no receiver",
+        "drogue velocity relative to the tanker at {} m/s, {} m: {} seeds x {RECORD_S} s after \
+         {SETTLE_S} s, sampled every {CONTROL_PERIOD_S} s; wake on, bow wave off, no receiver",
+        base.tanker.speed_mps,
+        base.tanker.altitude_m,
         SEEDS.len()
     );
     let header = |cells: [&str; 12]| {

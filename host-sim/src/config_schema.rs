@@ -60,7 +60,7 @@ pub struct Schema {
 }
 
 /// The settings whose name carries no unit suffix: dimensionless, or a choice.
-const UNITLESS: [(&str, &str); 17] = [
+const UNITLESS: [(&str, &str); 19] = [
     ("procedure", "choice: \"refuelling\" | \"paper\""),
     (
         "mass_factor",
@@ -69,6 +69,11 @@ const UNITLESS: [(&str, &str); 17] = [
     ("law", "choice: \"ibvs\" | \"pbvs\""),
     ("inner_loop", "choice: \"surfaces\" | \"attitude\""),
     ("attitude.damping", "1 (damping ratio)"),
+    ("estimator.drogue_swing_damping_ratio", "1 (damping ratio)"),
+    (
+        "estimator.drogue_swing_period_exponent",
+        "1 (power of the dynamic pressure's ratio)",
+    ),
     ("ibvs.convergence_point", "1 (normalised image x, y)"),
     (
         "measurement.half_fov_x",
@@ -388,7 +393,7 @@ mod tests {
     /// every such rule of the core has its case here.
     #[test]
     fn every_condition_rule_refuses_the_configuration_that_breaks_it() {
-        let cases: [(&str, &str); 58] = [
+        let cases: [(&str, &str); 60] = [
             (
                 "ibvs.max_cartesian_gain_per_s",
                 "[ibvs]\nmax_cartesian_gain_per_s = 0.0",
@@ -516,6 +521,14 @@ mod tests {
             (
                 "refuelling.late_gate_final_radius_m",
                 "[refuelling]\nlate_gate_final_radius_m = 0.6",
+            ),
+            (
+                "estimator.drogue_swing_damping_ratio",
+                "[estimator]\ndrogue_swing_damping_ratio = 1.0",
+            ),
+            (
+                "estimator.drogue_swing_period_exponent",
+                "[estimator]\ndrogue_swing_period_exponent = 1.5",
             ),
             (
                 "refuelling.commit_depth_m",

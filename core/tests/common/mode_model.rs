@@ -16,7 +16,8 @@
 //! - the drogue's offset from the probe tip from the frame (the camera's set-back, the
 //!   boresight's elevation at the design's trim, the attitude's small-angle de-rotation);
 //! - the drogue estimator of `ibvs_core::estimator`'s module doc: per axis the exactly
-//!   discretised Kalman filter (process noise in closed form), the innovation gate and the
+//!   discretised Kalman filter (process noise in closed form, the lateral PSD the measured
+//!   activity through the hose's swing, at least the floor's), the innovation gate and the
 //!   restart after too many rejections, the offset's and the activity's averages, the RMS
 //!   drogue speed; the go/no-go gate's predicted miss and the closing speed;
 //! - the paper's target from the frame (IBVS: the image point times the depth; PBVS: the
@@ -379,12 +380,19 @@ impl Filter {
     fn predict(&mut self, cfg: &ControllerConfig, tip: [f64; 3]) {
         let e = &cfg.estimator;
         let ts = f64::from(Controller::PERIOD_S);
-        let (tau, psd) = (
-            f64::from(e.drogue_time_constant_s),
-            f64::from(e.drogue_accel_psd_m2ps3),
-        );
-        self.axes[0].predict(tau, psd, ts, tip[0]);
-        self.axes[1].predict(tau, psd, ts, tip[1]);
+        // The lateral axes' PSD: the measured activity through the hose's swing, `4 ζ ω`
+        // per unit velocity variance, at least the floor speed's (`2 / τ` with no swing).
+        let tau = f64::from(e.drogue_time_constant_s);
+        let per_variance = if e.drogue_swing_period_s > 0.0 && e.drogue_swing_damping_ratio > 0.0 {
+            4.0 * f64::from(e.drogue_swing_damping_ratio) * 2.0 * std::f64::consts::PI
+                / f64::from(e.drogue_swing_period_s)
+        } else {
+            2.0 / tau
+        };
+        let floor = per_variance * f64::from(e.drogue_speed_floor_mps).powi(2);
+        let psd = self.activity.map(|a| (per_variance * a).max(floor));
+        self.axes[0].predict(tau, psd[0], ts, tip[0]);
+        self.axes[1].predict(tau, psd[1], ts, tip[1]);
         self.axes[2].predict(
             f64::from(e.drogue_fwd_time_constant_s),
             f64::from(e.drogue_fwd_accel_psd_m2ps3),
