@@ -17,7 +17,8 @@
 //!   boresight's elevation at the design's trim, the attitude's small-angle de-rotation);
 //! - the drogue estimator of `ibvs_core::estimator`'s module doc: per axis the exactly
 //!   discretised Kalman filter (process noise in closed form, the lateral PSD the measured
-//!   activity through the hose's swing, at least the floor's), the innovation gate and the
+//!   activity through the hose's swing at the flown design's condition, at least the
+//!   floor's), the innovation gate and the
 //!   restart after too many rejections, the offset's and the activity's averages, the RMS
 //!   drogue speed; the go/no-go gate's predicted miss and the closing speed;
 //! - the paper's target from the frame (IBVS: the image point times the depth; PBVS: the
@@ -136,6 +137,10 @@ struct Design {
     /// The forward row of the flown longitudinal design's output matrix at the CG, over
     /// `[theta, V, alpha, q, P]`.
     fwd_row: [f64; 5],
+    /// The hose's swing period the drogue filter takes at this condition, s (0: no swing):
+    /// the configured period, shortened as the dynamic pressure's ratio to the design
+    /// condition's to the configured exponent, never lengthened.
+    swing_period: f64,
 }
 
 /// The cell of `axis` holding `x` (inside it) and the fraction across it.
@@ -149,7 +154,8 @@ fn cell(axis: &[f32], x: f64) -> (usize, f64) {
 
 impl Design {
     /// Bilinear over the schedule's nodes at `(airspeed, altitude)` (inside the grid).
-    fn at(airspeed: f32, altitude: f32, procedure: Procedure) -> Self {
+    fn at(airspeed: f32, altitude: f32, cfg: &ControllerConfig) -> Self {
+        let procedure = cfg.procedure;
         let (i, s) = cell(&SCHEDULE_SPEEDS_MPS, f64::from(airspeed));
         let (j, t) = cell(&SCHEDULE_ALTITUDES_M, f64::from(altitude));
         let blend = |f: &dyn Fn(usize, usize) -> f32| {
@@ -175,8 +181,28 @@ impl Design {
             alpha: blend(&|jj, ii| SCHEDULE[jj][ii].trim.alpha_rad),
             theta: blend(&|jj, ii| SCHEDULE[jj][ii].trim.theta_rad),
             fwd_row,
+            swing_period: swing_period(cfg, f64::from(airspeed), f64::from(altitude)),
         }
     }
+}
+
+/// The swing's period at `(airspeed, altitude)` (the troposphere's density, ISA).
+fn swing_period(cfg: &ControllerConfig, airspeed: f64, altitude: f64) -> f64 {
+    let e = &cfg.estimator;
+    if e.drogue_swing_period_s <= 0.0 {
+        return 0.0;
+    }
+    let dynamic_pressure = |v: f64, h: f64| (1.0 - 2.255_77e-5 * h).powf(4.255_88) * v * v;
+    let design = NavSample::default().condition;
+    let ratio = dynamic_pressure(airspeed, altitude)
+        / dynamic_pressure(
+            f64::from(design.true_airspeed_mps),
+            f64::from(design.altitude_m),
+        );
+    f64::from(e.drogue_swing_period_s)
+        * ratio
+            .powf(-f64::from(e.drogue_swing_period_exponent))
+            .min(1.0)
 }
 
 fn f3(v: [f32; 3]) -> [f64; 3] {
@@ -377,15 +403,16 @@ impl Filter {
         }
     }
 
-    fn predict(&mut self, cfg: &ControllerConfig, tip: [f64; 3]) {
+    /// One step: `swing_period` is the flown design's (0: no swing).
+    fn predict(&mut self, cfg: &ControllerConfig, swing_period: f64, tip: [f64; 3]) {
         let e = &cfg.estimator;
         let ts = f64::from(Controller::PERIOD_S);
         // The lateral axes' PSD: the measured activity through the hose's swing, `4 ζ ω`
         // per unit velocity variance, at least the floor speed's (`2 / τ` with no swing).
         let tau = f64::from(e.drogue_time_constant_s);
-        let per_variance = if e.drogue_swing_period_s > 0.0 && e.drogue_swing_damping_ratio > 0.0 {
+        let per_variance = if swing_period > 0.0 && e.drogue_swing_damping_ratio > 0.0 {
             4.0 * f64::from(e.drogue_swing_damping_ratio) * 2.0 * std::f64::consts::PI
-                / f64::from(e.drogue_swing_period_s)
+                / swing_period
         } else {
             2.0 / tau
         };
@@ -582,7 +609,7 @@ impl Model {
             frozen: None,
             last_nav: NavSample::default(),
             nav_invalid: 0,
-            design: Design::at(default.true_airspeed_mps, default.altitude_m, cfg.procedure),
+            design: Design::at(default.true_airspeed_mps, default.altitude_m, &cfg),
             edge_below: false,
             inside: true,
             mode: Mode::Standby,
@@ -773,7 +800,7 @@ impl Model {
         let edge_below = self.in_grid(&c) && self.below_slow_edge(&c);
         let next_design = self.in_grid(&c).then(|| {
             let c = self.last_nav.condition;
-            Design::at(c.true_airspeed_mps, c.altitude_m, self.cfg.procedure)
+            Design::at(c.true_airspeed_mps, c.altitude_m, &self.cfg)
         });
         let measurement_error = self.frame_error(input);
         let before = self.mode;
@@ -1005,7 +1032,7 @@ impl Model {
             (r, z)
         });
         if let Some(filter) = &mut self.filter {
-            filter.predict(&cfg, tip);
+            filter.predict(&cfg, self.design.swing_period, tip);
             if let Some((r, z)) = frame {
                 filter.correct(&cfg, r, z, o);
             }
