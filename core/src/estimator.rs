@@ -905,8 +905,9 @@ pub const MAX_SWING_LEAD_RAD: f32 = 2.0 * crate::num::SIN_COS_MAX_RAD;
 /// The feed-forward's coefficients `[kv, ka]`: the drogue's velocity `lead_s` ahead is
 /// `kv v + ka a`. On a swing of angular frequency `ω` (the configured period) a velocity
 /// `v` with acceleration `a` is `v cos ωh + (a / ω) sin ωh` after `h`: the swing's phase
-/// carried over the lead, which a decaying velocity cannot give (the inner loops' lateral
-/// lag is about 0.8 s, a fifth of the swing). The configuration keeps `ωh` within
+/// carried over the lead, which a decaying velocity cannot give (the inner loops' lag is
+/// about half a second at the swing's frequency, more on heavy airframes). The
+/// configuration keeps `ωh` within
 /// [`MAX_SWING_LEAD_RAD`]. Without a swing, `kv = exp(-h / τ)`, `ka = 0`.
 /// The hose's swing period at the flight condition `at`, s: the configured period (at the
 /// single-point design's condition, [`FlightCondition::default`]) times the ratio of the two

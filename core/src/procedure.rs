@@ -147,12 +147,15 @@ pub struct RefuellingConfig {
     /// axis slews at `velocity_limits.max_accel_mps2`): fast enough to follow the drogue's
     /// swing (its acceleration reaches about 0.6 m/s² RMS in the strongest campaign air).
     pub track_accel_mps2: f32,
-    /// How far ahead the drogue's velocity is predicted for the feed-forward, s: the inner
-    /// loops' lateral lag (the tip's velocity follows the command about 0.8 s late), along
-    /// the hose's swing ([`crate::estimator::EstimatorConfig::drogue_swing_period_s`]); at
-    /// most 5 s, and at most a quarter swing. Default 0.8 s (1,000 `level2` sorties, first
-    /// attempt: 961 with the decaying velocity 0.4 s ahead, 982 along the swing 0.4 s
-    /// ahead, 996 at 0.8 s, 990 at 1.0 s; `docs/scenarios.md`).
+    /// How far ahead the drogue's velocity is predicted for the feed-forward, s, along the
+    /// hose's swing ([`crate::estimator::EstimatorConfig::drogue_swing_period_s`]): the inner
+    /// loops' lag at the swing's frequency plus what the estimator's own lag takes back of
+    /// the lead (about 0.35 s); at most 5 s, and at most a quarter swing. Default 0.95 s: the
+    /// lateral loop's lag at the design condition grows with the airframe's mass (0.45 s at
+    /// 0.85 of the design's, 0.51 s at 1.0, 1.04 s at 1.25), and 0.95 s matches it on the
+    /// middle of the campaigns' airframes (1.05), inside the longest lead the estimator
+    /// carries (0.99 s at 3.9 s): `docs/conventions.md`, "Drogue estimator", and
+    /// `host-sim/examples/feedforward_lead.rs`.
     pub feedforward_lead_s: f32,
     /// Fraction of the drogue's estimated velocity fed forward, 0..=1.
     pub feedforward_gain: f32,
@@ -325,7 +328,7 @@ impl Default for RefuellingConfig {
             track_gain_per_s: 0.5,
             max_correction_mps: 0.5,
             track_accel_mps2: 1.0,
-            feedforward_lead_s: 0.8,
+            feedforward_lead_s: 0.95,
             feedforward_gain: 1.0,
             contact_speed_mps: 1.0,
             rough_air_drogue_speed_mps: 0.2,

@@ -643,6 +643,39 @@ impl FlownLoop<'_> {
     pub fn margins(&self) -> Margins {
         margins_of(&self.matrices())
     }
+
+    /// The tracked point's true velocity `[down, forward, right]` (the output rows on the
+    /// plant's design coordinates now, not on the late sample) over the loop's state.
+    pub fn tracked_velocity(&self) -> DMatrix<f64> {
+        let c = &self.controller.c_tracked;
+        DMatrix::from_fn(
+            3,
+            self.len(),
+            |r, j| {
+                if j < c.ncols() { c[(r, j)] } else { 0.0 }
+            },
+        )
+    }
+
+    /// The closed loop's response of the tracked velocity to the desired velocity at
+    /// `omega_radps`, axis by axis (`[down, forward, right]`, each to its own desired
+    /// velocity): `T(z) = C_y (zI - A)^-1 B_r` at `z = exp(j omega Ts)`.
+    pub fn velocity_response(&self, m: &LoopMatrices, omega_radps: f64) -> [C64; 3] {
+        let n = m.a.nrows();
+        let z = C64::from_polar(1.0, omega_radps * CONTROL_PERIOD_S);
+        let resolvent = DMatrix::<C64>::from_fn(n, n, |r, c| {
+            let diag = if r == c { z } else { C64::new(0.0, 0.0) };
+            diag - C64::new(m.a[(r, c)], 0.0)
+        });
+        let b = m.b_r.map(|v| C64::new(v, 0.0));
+        let c = self.tracked_velocity().map(|v| C64::new(v, 0.0));
+        let x = resolvent
+            .lu()
+            .solve(&b)
+            .unwrap_or_else(|| DMatrix::zeros(n, 3));
+        let t = c * x;
+        [t[(0, 0)], t[(1, 1)], t[(2, 2)]]
+    }
 }
 
 type C64 = Complex<f64>;

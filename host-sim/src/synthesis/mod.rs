@@ -15,6 +15,7 @@
 
 pub mod codegen;
 pub mod latency;
+pub mod lead;
 pub mod linalg;
 pub mod margins;
 pub mod schedule;
