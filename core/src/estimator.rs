@@ -31,8 +31,9 @@
 //! it needs no displacement: the feed-forward's velocity a lead ahead
 //! ([`DrogueEstimator::drogue_velocity_ahead`]) carries the estimated velocity and its rate
 //! (the drogue's acceleration, the velocity's change low-passed) along a swing of the
-//! configured period, the phase a decaying velocity cannot give; a drogue at rest has
-//! neither, and nothing is predicted. Discretised exactly at construction (`Ts`-step
+//! configured period, the phase a decaying velocity cannot give, and the velocity's average
+//! (a drift, which the swing has not: the apparent one of a mount error while closing)
+//! unchanged; a drogue at rest has none of them, and nothing is predicted. Discretised exactly at construction (`Ts`-step
 //! transition and process noise of the Gauss-Markov process). Measurement noise grows with
 //! the camera's depth (`offset_noise_*`, `depth_noise_*`).
 //!
@@ -574,8 +575,9 @@ pub struct EstimatorModel {
     /// Step of the acceleration's low-pass, `1 - exp(-Ts / drogue_accel_time_constant_s)`
     /// (exact: stable at any period).
     accel_step: f32,
-    /// The feed-forward's velocity `lead` ahead is `lead[0] v + lead[1] a`.
-    lead: [f32; 2],
+    /// The feed-forward's velocity `lead` ahead is `lead[0] v + lead[1] a + lead[2] d`
+    /// (`d` the velocity's average, the drift).
+    lead: [f32; 3],
     /// [`EstimatorConfig::bearing_bias_sigma_rad`] squared, rad².
     bearing_bias_variance: [f32; 2],
     /// The hose's swing period the model was built for, s (0: none).
@@ -673,6 +675,10 @@ pub struct DrogueEstimator {
     accel: [f32; 2],
     /// The estimated velocity at the previous step, right and down, m/s.
     velocity_before: [f32; 2],
+    /// Average of the estimated velocity, right and down, m/s (the activity's average): the
+    /// part of the drogue's apparent motion that is not its swing, which has no mean (a
+    /// mount error's apparent drift while closing, a slow relative drift).
+    drift: [f32; 2],
     /// Consecutive rejected frames.
     rejections: u16,
     /// The filter holds an estimate (started from a frame).
@@ -698,6 +704,7 @@ impl DrogueEstimator {
     pub fn start(&mut self, frame: &TipFrame, cfg: &EstimatorConfig) {
         self.restart(frame, cfg);
         self.mean_offset = [frame.drogue_from_tip_m[0], frame.drogue_from_tip_m[1]];
+        self.drift = [0.0; 2];
         // The configured PSD's stationary velocity variance, q τ / 2.
         self.activity = [cfg.drogue_accel_psd_m2ps3 * cfg.drogue_time_constant_s / 2.0; 2];
     }
@@ -738,14 +745,16 @@ impl DrogueEstimator {
         m.lateral.predict(right, tip_velocity_mps[0], m.ts, psd[0]);
         m.lateral.predict(down, tip_velocity_mps[1], m.ts, psd[1]);
         m.forward.predict(fwd, tip_velocity_mps[2], m.ts, 1.0);
-        for ((a, r), ax) in self
+        for (((a, r), d), ax) in self
             .activity
             .iter_mut()
             .zip(&mut self.mean_offset)
+            .zip(&mut self.drift)
             .zip(&self.axes)
         {
             *a += m.activity_step * (ax.x[1] * ax.x[1] - *a);
             *r += m.mean_step * (ax.x[0] - *r);
+            *d += m.activity_step * (ax.x[1] - *d);
         }
     }
 
@@ -858,7 +867,15 @@ impl DrogueEstimator {
     /// configured, its velocity decayed as the model says).
     #[inline(always)]
     pub fn drogue_velocity_ahead(&self, m: &EstimatorModel) -> [f32; 2] {
-        [0, 1].map(|i| m.lead[0] * self.axes[i].x[1] + m.lead[1] * self.accel[i])
+        [0, 1].map(|i| {
+            m.lead[0] * self.axes[i].x[1] + m.lead[1] * self.accel[i] + m.lead[2] * self.drift[i]
+        })
+    }
+
+    /// The estimated velocity's average, `[right, down]`, m/s: the drift the feed-forward
+    /// carries unchanged ([`DrogueEstimator::drogue_velocity_ahead`]).
+    pub fn drogue_drift_mps(&self) -> [f32; 2] {
+        self.drift
     }
 
     /// The drogue's acceleration estimate, `[right, down]`, m/s².
@@ -902,13 +919,6 @@ impl DrogueEstimator {
 /// swing (1.8 rad) docked fewer at the first attempt than 0.8 s (`docs/scenarios.md`).
 pub const MAX_SWING_LEAD_RAD: f32 = 2.0 * crate::num::SIN_COS_MAX_RAD;
 
-/// The feed-forward's coefficients `[kv, ka]`: the drogue's velocity `lead_s` ahead is
-/// `kv v + ka a`. On a swing of angular frequency `ω` (the configured period) a velocity
-/// `v` with acceleration `a` is `v cos ωh + (a / ω) sin ωh` after `h`: the swing's phase
-/// carried over the lead, which a decaying velocity cannot give (the inner loops' lag is
-/// about half a second at the swing's frequency, more on heavy airframes). The
-/// configuration keeps `ωh` within
-/// [`MAX_SWING_LEAD_RAD`]. Without a swing, `kv = exp(-h / τ)`, `ka = 0`.
 /// The hose's swing period at the flight condition `at`, s: the configured period (at the
 /// single-point design's condition, [`FlightCondition::default`]) times the ratio of the two
 /// conditions' dynamic pressures to the power `-drogue_swing_period_exponent`, at most the
@@ -948,7 +958,16 @@ fn filter_psd_per_variance(cfg: &EstimatorConfig, period_s: f32) -> f32 {
     }
 }
 
-fn swing_lead(cfg: &EstimatorConfig, period_s: f32, lead_s: f32) -> [f32; 2] {
+/// The feed-forward's coefficients `[kv, ka, kd]`: the drogue's velocity `lead_s` ahead is
+/// `kv v + ka a + kd d`. On a swing of angular frequency `ω` (the period at the flight
+/// condition) a velocity `v` with acceleration `a` is `v cos ωh + (a / ω) sin ωh` after
+/// `h`: the swing's phase carried over the lead, which a decaying velocity cannot give (the
+/// inner loops' lag is about half a second at the swing's frequency, more on heavy
+/// airframes). The swing has no mean, so the velocity's average `d` (a drift: the apparent
+/// one a mount error gives while closing) is carried unchanged: `v cos ωh` becomes
+/// `d + (v - d) cos ωh`, `kd = 1 - cos ωh`. At most [`MAX_SWING_LEAD_RAD`] of the swing.
+/// Without a swing, `kv = exp(-h / τ)`, `ka = kd = 0`.
+fn swing_lead(cfg: &EstimatorConfig, period_s: f32, lead_s: f32) -> [f32; 3] {
     if period_s > 0.0 {
         let w = 2.0 * core::f32::consts::PI / period_s;
         // At most a quarter swing ahead: the configuration keeps the lead within it at the
@@ -956,9 +975,11 @@ fn swing_lead(cfg: &EstimatorConfig, period_s: f32, lead_s: f32) -> [f32; 2] {
         // than a quarter of its own. Double angle: `ωh / 2` within `sin_cos`'s range.
         let half = min_to(0.5 * w * lead_s, crate::num::SIN_COS_MAX_RAD);
         let (s, c) = sin_cos(half);
-        [c * c - s * s, 2.0 * s * c / w]
+        let kv = c * c - s * s;
+        // The swing has no mean: the velocity's average (the drift) is carried unchanged.
+        [kv, 2.0 * s * c / w, 1.0 - kv]
     } else {
-        [libm::expf(-lead_s / cfg.drogue_time_constant_s), 0.0]
+        [libm::expf(-lead_s / cfg.drogue_time_constant_s), 0.0, 0.0]
     }
 }
 
@@ -1239,11 +1260,54 @@ mod tests {
         let now = e.estimate().drogue_velocity_mps[0];
         let ahead = e.drogue_velocity_ahead(&no_swing)[0];
         assert!((ahead - now * libm::expf(-LEAD_S / cfg.drogue_time_constant_s)).abs() < 1e-6);
-        // Along the swing: `v cos ωh + (a / ω) sin ωh`, with the filtered acceleration.
+        // Along the swing: `d + (v - d) cos ωh + (a / ω) sin ωh`, with the filtered
+        // acceleration and the velocity's average (small: the swing has no mean).
         let wh = 2.0 * core::f32::consts::PI / cfg.drogue_swing_period_s * LEAD_S;
         let a = e.drogue_accel_mps2()[0];
-        let along = now * libm::cosf(wh) + a * libm::sinf(wh) * LEAD_S / wh;
+        let d = e.drogue_drift_mps()[0];
+        assert!(d.abs() < 0.1, "{d}");
+        let along = d + (now - d) * libm::cosf(wh) + a * libm::sinf(wh) * LEAD_S / wh;
         assert!((e.drogue_velocity_ahead(&m)[0] - along).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_drift_is_carried_ahead_unchanged() {
+        // The drogue's apparent offset drifts at a steady 0.1 m/s right (a mount error seen
+        // while closing): a lead ahead it still drifts so. The swing's term alone would carry
+        // `cos ωh` of it (0.28 at 0.8 s of a 3.9 s swing).
+        let (cfg, m) = model();
+        let v0 = 0.1_f32;
+        let frame = |t: f32| TipFrame {
+            drogue_from_tip_m: [0.2 + v0 * t, 0.0, 3.0],
+            camera_depth_m: 3.0,
+        };
+        let mut e = DrogueEstimator::default();
+        e.start(&frame(0.0), &cfg);
+        // 60 s: fifteen of the average's time constants, the steady state.
+        for k in 1..3000 {
+            e.predict([0.0; 3], &m);
+            e.correct(&frame(k as f32 * TS), &cfg);
+        }
+        // The filter's velocity holds the drift within its Gauss-Markov model's steady lag
+        // (the velocity decaying with τ between frames: 0.092 m/s measured), and the
+        // prediction carries what it holds: the average is of the predicted velocity, one
+        // step's decay (1.5 %) below the corrected one.
+        let now = e.estimate().drogue_velocity_mps[0];
+        assert!((now - v0).abs() < 0.15 * v0, "{now}");
+        let step_decay = 1.0 - libm::expf(-TS / cfg.drogue_time_constant_s);
+        let ahead = e.drogue_velocity_ahead(&m)[0];
+        assert!(
+            (ahead - now).abs() < (step_decay + 1e-3) * now,
+            "{ahead} {now}"
+        );
+        assert!(
+            (e.drogue_drift_mps()[0] - now).abs() < (step_decay + 1e-3) * now,
+            "{:?} {now} {step_decay}",
+            e.drogue_drift_mps()
+        );
+        // Restarted from a frame, the drift is forgotten with the rest.
+        e.start(&frame(0.0), &cfg);
+        assert_eq!(e.drogue_drift_mps(), [0.0; 2]);
     }
 
     #[test]

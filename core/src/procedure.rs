@@ -150,12 +150,12 @@ pub struct RefuellingConfig {
     /// How far ahead the drogue's velocity is predicted for the feed-forward, s, along the
     /// hose's swing ([`crate::estimator::EstimatorConfig::drogue_swing_period_s`]): the inner
     /// loops' lag at the swing's frequency plus what the estimator's own lag takes back of
-    /// the lead (about 0.35 s); at most 5 s, and at most a quarter swing. Default 0.95 s: the
+    /// the lead (about 0.4 s); at most 5 s, and at most a quarter swing. Default 0.95 s: the
     /// lateral loop's lag at the design condition grows with the airframe's mass (0.45 s at
-    /// 0.85 of the design's, 0.51 s at 1.0, 1.04 s at 1.25), and 0.95 s matches it on the
-    /// middle of the campaigns' airframes (1.05), inside the longest lead the estimator
-    /// carries (0.99 s at 3.9 s): `docs/conventions.md`, "Drogue estimator", and
-    /// `host-sim/examples/feedforward_lead.rs`.
+    /// 0.85 of the design's, 0.51 s at 1.0, 1.04 s at 1.25), and 0.95 s lies between the
+    /// lead that matches it on the design's airframe (0.92 s) and the longest the estimator
+    /// carries (0.99 s at 3.9 s), which the heavier airframes need and more:
+    /// `docs/conventions.md`, "Drogue estimator", and `host-sim/examples/feedforward_lead.rs`.
     pub feedforward_lead_s: f32,
     /// Fraction of the drogue's estimated velocity fed forward, 0..=1.
     pub feedforward_gain: f32,
