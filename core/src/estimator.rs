@@ -33,9 +33,10 @@
 //! (the drogue's acceleration, the velocity's change low-passed) along a swing of the
 //! configured period, the phase a decaying velocity cannot give, and the velocity's average
 //! (a drift, which the swing has not: the apparent one of a mount error while closing)
-//! unchanged; a drogue at rest has none of them, and nothing is predicted. Discretised exactly at construction (`Ts`-step
-//! transition and process noise of the Gauss-Markov process). Measurement noise grows with
-//! the camera's depth (`offset_noise_*`, `depth_noise_*`).
+//! unchanged; a drogue at rest has none of them, and nothing is predicted. Discretised
+//! exactly at construction (`Ts`-step transition and process noise of the Gauss-Markov
+//! process). Measurement noise grows with the camera's depth (`offset_noise_*`,
+//! `depth_noise_*`).
 //!
 //! How hard the drogue is being driven (the air's turbulence) is not configured but measured:
 //! an exponential average of the estimated drogue velocity's square over
