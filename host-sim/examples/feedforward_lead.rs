@@ -14,10 +14,10 @@
 //! (the lead whose advance is printed, default the configuration's; the airframe's mass as a
 //! factor of the design's, default 1, told to the controller, which flies the design it
 //! picks).
-use std::f64::consts::PI;
-
-use host_sim::synthesis::lead::{estimator_advance_s, longest_lead_s, loop_lag_s, matching_lead_s};
-use host_sim::synthesis::margins::{GRID_XCG, flown_config};
+use host_sim::synthesis::lead::{
+    estimator_advance_s, grid_lags_s, longest_lead_s, matching_lead_s,
+};
+use host_sim::synthesis::margins::flown_config;
 use ibvs_core::estimator::swing_period_s;
 use ibvs_core::gains::{SCHEDULE_ALTITUDES_M, SCHEDULE_SPEEDS_MPS};
 use ibvs_core::nav::FlightCondition;
@@ -45,23 +45,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 altitude_m: h,
             };
             let period = swing_period_s(&cfg.estimator, condition);
-            let w = 2.0 * PI / f64::from(period);
-            let (mut right, mut down) = (Vec::new(), Vec::new());
-            for &xcg in &GRID_XCG {
-                for latency in [1, 2] {
-                    let [r, d] = loop_lag_s(
-                        &cfg,
-                        f64::from(v),
-                        f64::from(h),
-                        xcg,
-                        mass_factor,
-                        latency,
-                        w,
-                    )?;
-                    right.push(r);
-                    down.push(d);
-                }
-            }
+            let lags = grid_lags_s(&cfg, condition, mass_factor)?;
+            let right: Vec<f64> = lags.iter().map(|l| l[0]).collect();
+            let down: Vec<f64> = lags.iter().map(|l| l[1]).collect();
             let span = |x: &[f64]| {
                 let lo = x.iter().copied().fold(f64::MAX, f64::min);
                 let hi = x.iter().copied().fold(f64::MIN, f64::max);

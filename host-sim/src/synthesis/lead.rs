@@ -20,9 +20,9 @@
 use std::f64::consts::PI;
 
 use ibvs_core::Controller;
+use ibvs_core::ControllerConfig;
 use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, TipFrame};
 use ibvs_core::nav::FlightCondition;
-use ibvs_core::{ControllerConfig, RefuellingConfig};
 
 use super::margins::{FlownController, FlownLoop, MarginsError, TruePlant, node_design};
 
@@ -125,18 +125,17 @@ pub fn longest_lead_s(cfg: &EstimatorConfig, condition: FlightCondition) -> f32 
     ibvs_core::estimator::MAX_SWING_LEAD_RAD * period / (2.0 * core::f32::consts::PI)
 }
 
-/// The default lead's reason, checked: on the design's condition, the lead that matches the
-/// lateral loop's mean lag (cg 0.30..0.40, one and two periods of latency) on an airframe of
-/// `mass_factor`, s (`None`: beyond the longest).
-pub fn design_matching_lead_s(mass_factor: f64) -> Result<Option<f32>, MarginsError> {
-    let mut cfg = super::margins::flown_config();
-    cfg.mass_factor = mass_factor as f32;
-    let condition = FlightCondition::default();
-    let w = 2.0 * PI
-        / f64::from(ibvs_core::estimator::swing_period_s(
-            &cfg.estimator,
-            condition,
-        ));
+/// The loops' lag `[right, down]` at the node `condition`, at its swing's frequency, for
+/// every true cg of [`super::margins::GRID_XCG`] and one and two periods of navigation
+/// latency (the campaigns' range), on the airframe at `mass_factor` of the design's mass
+/// flown by the controller `cfg`, s.
+pub fn grid_lags_s(
+    cfg: &ControllerConfig,
+    condition: FlightCondition,
+    mass_factor: f64,
+) -> Result<Vec<[f64; 2]>, MarginsError> {
+    let period = ibvs_core::estimator::swing_period_s(&cfg.estimator, condition);
+    let w = 2.0 * PI / f64::from(period);
     let (v, h) = (
         f64::from(condition.true_airspeed_mps),
         f64::from(condition.altitude_m),
@@ -144,21 +143,32 @@ pub fn design_matching_lead_s(mass_factor: f64) -> Result<Option<f32>, MarginsEr
     let mut lags = Vec::new();
     for &xcg in &super::margins::GRID_XCG {
         for latency in [1, 2] {
-            lags.push(loop_lag_s(&cfg, v, h, xcg, mass_factor, latency, w)?[0]);
+            lags.push(loop_lag_s(cfg, v, h, xcg, mass_factor, latency, w)?);
         }
     }
-    let mean = lags.iter().sum::<f64>() / lags.len() as f64;
-    Ok(matching_lead_s(&cfg.estimator, condition, mean))
+    Ok(lags)
 }
 
-/// The configured lead (the default's, for the tests).
-pub fn default_lead_s() -> f32 {
-    RefuellingConfig::default().feedforward_lead_s
+/// The default lead's reason, checked: on the design's condition, the lead that matches the
+/// lateral loop's mean lag ([`grid_lags_s`]) on an airframe of `mass_factor` told to the
+/// controller, s (`None`: beyond the longest).
+pub fn design_matching_lead_s(mass_factor: f64) -> Result<Option<f32>, MarginsError> {
+    let mut cfg = super::margins::flown_config();
+    cfg.mass_factor = mass_factor as f32;
+    let condition = FlightCondition::default();
+    let lags = grid_lags_s(&cfg, condition, mass_factor)?;
+    let mean = lags.iter().map(|l| l[0]).sum::<f64>() / lags.len() as f64;
+    Ok(matching_lead_s(&cfg.estimator, condition, mean))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The configured lead (the default's).
+    fn default_lead_s() -> f32 {
+        ibvs_core::RefuellingConfig::default().feedforward_lead_s
+    }
 
     /// The estimator's prediction gains on the truth one for one with the lead, less its
     /// own lag: behind with no lead, ahead with the default's, and more ahead with more.
