@@ -473,3 +473,41 @@ fn on_light_airframes_the_light_design_is_stable_at_every_point_and_the_first_is
         "the design's own mass: largest radius {largest}"
     );
 }
+
+/// The loops as flown on the airframes a campaign disperses (aerodynamics, mass, inertia,
+/// each surface actuator's bandwidth, cg), each at its run's flight condition and true
+/// navigation latency (`margins::run_margins`, `examples/dispersed_stability.rs`):
+/// `mil-level2`'s first 200 runs (the refuelling presets' airframe dispersions at the
+/// design's condition) are every one stable. Measured over its runs 0..1,999: none unstable,
+/// the elevator's disk margin 0.186 at worst (median 0.613), all four inputs' 0.041 (median
+/// 0.457). Not asserted, and why: over `envelope` runs 0..1,999, 5 loops are unstable
+/// (spectral radius 1.0001..1.0021, a divergence over 10 s and more, all on light airframes
+/// flying the light design between the schedule's nodes), none of them upset in the campaign;
+/// and the linear verdict does not predict the campaigns' upsets (`docs/margins.md`, "On the
+/// campaigns' dispersed airframes").
+#[test]
+fn the_loops_are_stable_on_every_dispersed_airframe_of_the_strong_air_campaigns_first_runs() {
+    use host_sim::synthesis::margins::run_margins;
+    use rayon::prelude::*;
+    let f = ScenarioFile::load("mil-level2").unwrap();
+    let radii: Vec<(u64, f64, f64)> = (0..200u64)
+        .into_par_iter()
+        .map(|i| {
+            let m = run_margins(&f.dispersed(i)).unwrap();
+            (i, m.spectral_radius, m.all.alpha)
+        })
+        .collect();
+    let unstable: Vec<&(u64, f64, f64)> = radii.iter().filter(|(_, r, _)| *r >= 1.0).collect();
+    let worst = radii.iter().copied().fold(
+        (0, 0.0, f64::INFINITY),
+        |w, p| if p.2 < w.2 { p } else { w },
+    );
+    eprintln!(
+        "worst all-four disk margin {:.3} (run {}, radius {:.5})",
+        worst.2, worst.0, worst.1
+    );
+    assert!(
+        unstable.is_empty(),
+        "unstable loops (run, radius, margin): {unstable:?}"
+    );
+}

@@ -7,9 +7,10 @@
 //! - the plant: the nonlinear F-16 at cg `xcg` trimmed at the node's airspeed and altitude
 //!   and linearised there ([`crate::linearize`]: the ten design coordinates, the engine's
 //!   power lag among them, the full 10 x 10 matrix, so the small gyroscopic coupling between
-//!   the channels stays in), with a first-order lag of the receiver's nominal bandwidth on
-//!   the elevator, aileron and rudder (the throttle drives the engine state directly), as
-//!   [`super::with_actuators`] builds it; discretised by zero-order hold at `Ts`;
+//!   the channels stays in), with a first-order lag of each surface's bandwidth on the
+//!   elevator, aileron and rudder (the nominal one, or a dispersed airframe's,
+//!   [`TruePlant::with_plant`]; the throttle drives the engine state directly), as
+//!   [`super::with_actuators_each`] builds it; discretised by zero-order hold at `Ts`;
 //! - the navigation: the nine measured states `[theta, V, alpha, q | psi, phi, beta, p, r]`
 //!   reach the controller `true_latency` periods late (a delay line);
 //! - the controller, read from `core/src/controller.rs` (`Controller::step`),
@@ -73,7 +74,7 @@ use ibvs_core::{ControllerConfig, Procedure};
 use nalgebra::{Complex, DMatrix, DVector};
 
 use super::linalg::{spectral_radius, zoh};
-use super::{CONTROL_PERIOD_S, with_actuators};
+use super::{CONTROL_PERIOD_S, with_actuators_each};
 use crate::linearize::linearize;
 use crate::receiver::{F16, ModelError, ReceiverPlant, TrimError};
 
@@ -364,10 +365,31 @@ impl TruePlant {
     ) -> Result<Self, MarginsError> {
         let mut factors = ReceiverPlant::NOMINAL;
         factors.mass_scale = mass_factor;
-        let model = F16::with_plant(xcg, &factors)?;
+        Self::with_plant(xcg, &factors, speed_mps, altitude_m)
+    }
+
+    /// [`TruePlant::new`] on a dispersed airframe: the plant factors `factors` (aerodynamics,
+    /// mass, inertia, actuators' bandwidths; the linear loop has no rate limits), as a
+    /// campaign's run flies it.
+    pub fn with_plant(
+        xcg: f64,
+        factors: &ReceiverPlant,
+        speed_mps: f64,
+        altitude_m: f64,
+    ) -> Result<Self, MarginsError> {
+        let model = F16::with_plant(xcg, factors)?;
         let trim = model.trim_straight_level(speed_mps, altitude_m)?;
         let lin = linearize(&model, &trim);
-        let (ac, bc) = with_actuators(&lin.a, &lin.b, &ACTUATED, model.actuators().bandwidth_radps);
+        // Each surface's bandwidth as flown: the data's times its factor (the throttle has no
+        // actuator state).
+        let base = model.actuators().bandwidth_radps;
+        let bandwidths = [
+            base * factors.elevator_bandwidth_scale,
+            0.0,
+            base * factors.aileron_bandwidth_scale,
+            base * factors.rudder_bandwidth_scale,
+        ];
+        let (ac, bc) = with_actuators_each(&lin.a, &lin.b, &ACTUATED, &bandwidths);
         let (pd, pb) = zoh(&ac, &bc, CONTROL_PERIOD_S);
         Ok(Self {
             xcg,
@@ -920,6 +942,43 @@ pub struct GridPoint {
     pub true_latency: usize,
     /// The margins.
     pub margins: Margins,
+}
+
+/// The disk margins of the inner loops as flown on a dispersed airframe: the receiver with
+/// the plant factors `factors` at cg `xcg` ([`TruePlant::with_plant`]), trimmed at
+/// `speed_mps` and `altitude_m`, the controller `cfg` configures flying its design there,
+/// the navigation `true_latency` periods late. What a campaign's run flies, but for the
+/// actuators' rate and position limits and the turbulence.
+pub fn dispersed_margins(
+    cfg: &ControllerConfig,
+    xcg: f64,
+    factors: &ReceiverPlant,
+    speed_mps: f64,
+    altitude_m: f64,
+    true_latency: usize,
+) -> Result<Margins, MarginsError> {
+    let design = node_design(speed_mps, altitude_m)?;
+    let plant = TruePlant::with_plant(xcg, factors, speed_mps, altitude_m)?;
+    let controller = FlownController::new(&design, cfg, &plant);
+    Ok(FlownLoop {
+        plant: &plant,
+        controller: &controller,
+        true_latency,
+    }
+    .margins())
+}
+
+/// [`dispersed_margins`] of a campaign's run as [`crate::scenario::ScenarioFile::dispersed`]
+/// draws it: its airframe, cg, flight condition, configuration and the INS's latency.
+pub fn run_margins(run: &crate::scenario::ScenarioFile) -> Result<Margins, MarginsError> {
+    dispersed_margins(
+        &run.controller_config(),
+        run.receiver.xcg,
+        &run.receiver.plant,
+        run.flight.airspeed_mps,
+        run.flight.altitude_m,
+        usize::from(run.navigation.installed_latency_steps()),
+    )
 }
 
 /// The true cgs of the receiver's range (docs/models.md, "Receiver plant dispersions").

@@ -371,13 +371,24 @@ pub fn with_actuators(
     actuated: &[bool],
     bandwidth_radps: f64,
 ) -> (DMatrix<f64>, DMatrix<f64>) {
+    with_actuators_each(a, b, actuated, &vec![bandwidth_radps; actuated.len()])
+}
+
+/// [`with_actuators`] with each input's own bandwidth, `bandwidths_radps[i]` (unused where
+/// `actuated[i]` is false): a dispersed airframe's surfaces.
+pub fn with_actuators_each(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    actuated: &[bool],
+    bandwidths_radps: &[f64],
+) -> (DMatrix<f64>, DMatrix<f64>) {
     let (n, nu) = (a.nrows(), b.ncols());
     let np = n + actuated.iter().filter(|&&x| x).count();
     let mut ac = DMatrix::zeros(np, np);
     let mut bc = DMatrix::zeros(np, nu);
     ac.view_mut((0, 0), (n, n)).copy_from(a);
     let mut j = n;
-    for (i, &act) in actuated.iter().enumerate() {
+    for (i, (&act, &bandwidth_radps)) in actuated.iter().zip(bandwidths_radps).enumerate() {
         if act {
             ac.view_mut((0, j), (n, 1)).copy_from(&b.column(i));
             ac[(j, j)] = -bandwidth_radps;
