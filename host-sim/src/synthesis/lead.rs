@@ -24,7 +24,8 @@ use ibvs_core::ControllerConfig;
 use ibvs_core::estimator::{DrogueEstimator, EstimatorConfig, EstimatorModel, TipFrame};
 use ibvs_core::nav::FlightCondition;
 
-use super::margins::{FlownController, FlownLoop, MarginsError, TruePlant, node_design};
+use super::margins::{FlownLoop, MarginsError, flown_on};
+use crate::receiver::ReceiverPlant;
 
 /// The drogue's swing velocity amplitude the estimator is fed, m/s: the RMS 0.19 m/s of the
 /// simulated hose in level II air (1 m/s of gust) times √2.
@@ -48,9 +49,9 @@ pub fn loop_lag_s(
     true_latency: usize,
     omega_radps: f64,
 ) -> Result<[f64; 2], MarginsError> {
-    let design = node_design(speed_mps, altitude_m)?;
-    let plant = TruePlant::with_mass(xcg, mass_factor, speed_mps, altitude_m)?;
-    let controller = FlownController::new(&design, cfg, &plant);
+    let mut factors = ReceiverPlant::NOMINAL;
+    factors.mass_scale = mass_factor;
+    let (plant, controller) = flown_on(cfg, xcg, &factors, speed_mps, altitude_m)?;
     let l = FlownLoop {
         plant: &plant,
         controller: &controller,
@@ -191,9 +192,8 @@ mod tests {
     #[test]
     fn the_loops_follow_a_slow_command_and_lag_the_swing() {
         let cfg = super::super::margins::flown_config();
-        let plant = TruePlant::new(0.35, 120.0, 3000.0).expect("plant");
-        let design = node_design(120.0, 3000.0).expect("design");
-        let controller = FlownController::new(&design, &cfg, &plant);
+        let (plant, controller) =
+            flown_on(&cfg, 0.35, &ReceiverPlant::NOMINAL, 120.0, 3000.0).expect("loop");
         let l = FlownLoop {
             plant: &plant,
             controller: &controller,

@@ -353,19 +353,7 @@ impl TruePlant {
     /// The F-16 at cg `xcg` trimmed straight and level at `speed_mps`, `altitude_m`,
     /// linearised, with its nominal actuators, discretised at the control period.
     pub fn new(xcg: f64, speed_mps: f64, altitude_m: f64) -> Result<Self, MarginsError> {
-        Self::with_mass(xcg, 1.0, speed_mps, altitude_m)
-    }
-
-    /// [`TruePlant::new`] on the airframe at `mass_factor` of the data's mass.
-    pub fn with_mass(
-        xcg: f64,
-        mass_factor: f64,
-        speed_mps: f64,
-        altitude_m: f64,
-    ) -> Result<Self, MarginsError> {
-        let mut factors = ReceiverPlant::NOMINAL;
-        factors.mass_scale = mass_factor;
-        Self::with_plant(xcg, &factors, speed_mps, altitude_m)
+        Self::with_plant(xcg, &ReceiverPlant::NOMINAL, speed_mps, altitude_m)
     }
 
     /// [`TruePlant::new`] on a dispersed airframe: the plant factors `factors` (aerodynamics,
@@ -944,41 +932,41 @@ pub struct GridPoint {
     pub margins: Margins,
 }
 
-/// The disk margins of the inner loops as flown on a dispersed airframe: the receiver with
-/// the plant factors `factors` at cg `xcg` ([`TruePlant::with_plant`]), trimmed at
-/// `speed_mps` and `altitude_m`, the controller `cfg` configures flying its design there,
-/// the navigation `true_latency` periods late. What a campaign's run flies, but for the
-/// actuators' rate and position limits and the turbulence.
-pub fn dispersed_margins(
+/// The loop's two sides at a flight condition: the receiver with the plant factors `factors`
+/// at cg `xcg` trimmed at `speed_mps` and `altitude_m` ([`TruePlant::with_plant`]), and the
+/// controller `cfg` configures flying its design there (which picks its gains by its own
+/// `mass_factor`). Close them with a [`FlownLoop`] at a true latency.
+pub fn flown_on(
     cfg: &ControllerConfig,
     xcg: f64,
     factors: &ReceiverPlant,
     speed_mps: f64,
     altitude_m: f64,
-    true_latency: usize,
-) -> Result<Margins, MarginsError> {
+) -> Result<(TruePlant, FlownController), MarginsError> {
     let design = node_design(speed_mps, altitude_m)?;
     let plant = TruePlant::with_plant(xcg, factors, speed_mps, altitude_m)?;
     let controller = FlownController::new(&design, cfg, &plant);
-    Ok(FlownLoop {
-        plant: &plant,
-        controller: &controller,
-        true_latency,
-    }
-    .margins())
+    Ok((plant, controller))
 }
 
-/// [`dispersed_margins`] of a campaign's run as [`crate::scenario::ScenarioFile::dispersed`]
-/// draws it: its airframe, cg, flight condition, configuration and the INS's latency.
+/// The disk margins of the inner loops as flown on a campaign's run as
+/// [`crate::scenario::ScenarioFile::dispersed`] draws it: its airframe's factors and cg
+/// trimmed at its flight condition, its configuration, the INS's latency. What the run
+/// flies, but for the actuators' rate and position limits and the turbulence.
 pub fn run_margins(run: &crate::scenario::ScenarioFile) -> Result<Margins, MarginsError> {
-    dispersed_margins(
+    let (plant, controller) = flown_on(
         &run.controller_config(),
         run.receiver.xcg,
         &run.receiver.plant,
         run.flight.airspeed_mps,
         run.flight.altitude_m,
-        usize::from(run.navigation.installed_latency_steps()),
-    )
+    )?;
+    Ok(FlownLoop {
+        plant: &plant,
+        controller: &controller,
+        true_latency: usize::from(run.navigation.installed_latency_steps()),
+    }
+    .margins())
 }
 
 /// The true cgs of the receiver's range (docs/models.md, "Receiver plant dispersions").
@@ -1008,9 +996,9 @@ pub fn grid_on(cfg: &ControllerConfig, mass_factor: f64) -> Result<Vec<GridPoint
     let per: Vec<Vec<GridPoint>> = nodes
         .par_iter()
         .map(|&(v, h, xcg)| {
-            let design = node_design(v, h)?;
-            let plant = TruePlant::with_mass(xcg, mass_factor, v, h)?;
-            let controller = FlownController::new(&design, cfg, &plant);
+            let mut factors = ReceiverPlant::NOMINAL;
+            factors.mass_scale = mass_factor;
+            let (plant, controller) = flown_on(cfg, xcg, &factors, v, h)?;
             Ok(GRID_LATENCY_STEPS
                 .iter()
                 .map(|&d| GridPoint {
